@@ -1,0 +1,126 @@
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Dense>
+
+#include "alphainv/identify.hpp"
+
+namespace alphainv {
+
+double SineFit::amplitude() const { return std::hypot(a1, a2); }
+double SineFit::phase_rad() const { return std::atan2(a1, a2); }
+
+SineFit fit_sine(const double* t_s, const double* y, std::size_t n, double omega_rad_s,
+                 bool fit_offset) {
+  SineFit fit;
+  fit.omega_rad_s = omega_rad_s;
+  fit.n = n;
+  const Eigen::Index cols = fit_offset ? 3 : 2;
+  if (n < static_cast<std::size_t>(cols) + 1 || !(omega_rad_s > 0.0)) return fit;
+  // Normal equations of (15), accumulated (n can be large; the system is tiny).
+  Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d atb = Eigen::Vector3d::Zero();
+  for (std::size_t k = 0; k < n; ++k) {
+    const double wt = omega_rad_s * t_s[k];
+    const Eigen::Vector3d row(std::cos(wt), std::sin(wt), fit_offset ? 1.0 : 0.0);
+    ata += row * row.transpose();
+    atb += row * y[k];
+  }
+  if (!fit_offset) ata(2, 2) = 1.0;
+  const Eigen::LDLT<Eigen::Matrix3d> ldlt(ata);
+  if (ldlt.info() != Eigen::Success || !(ldlt.rcond() > 1e-12)) return fit;
+  const Eigen::Vector3d x = ldlt.solve(atb);
+  fit.a1 = x(0);
+  fit.a2 = x(1);
+  fit.offset = fit_offset ? x(2) : 0.0;
+  double ss = 0.0;
+  for (std::size_t k = 0; k < n; ++k) {
+    const double wt = omega_rad_s * t_s[k];
+    const double e = y[k] - (fit.a1 * std::cos(wt) + fit.a2 * std::sin(wt) + fit.offset);
+    ss += e * e;
+  }
+  fit.rms_residual = std::sqrt(ss / static_cast<double>(n));
+  fit.valid = std::isfinite(fit.a1) && std::isfinite(fit.a2);
+  return fit;
+}
+
+SineFit fit_sine(const std::vector<double>& t_s, const std::vector<double>& y, double omega_rad_s,
+                 bool fit_offset) {
+  const std::size_t n = std::min(t_s.size(), y.size());
+  return fit_sine(t_s.data(), y.data(), n, omega_rad_s, fit_offset);
+}
+
+IndexRange steady_state_window(const std::vector<double>& t_s, double freq_hz, double settle_s) {
+  IndexRange range;
+  if (t_s.size() < 2 || !(freq_hz > 0.0)) return range;
+  const double period_s = 1.0 / freq_hz;
+  const double t_end = t_s.back();
+  const double t_start_min = t_s.front() + std::max(0.0, settle_s);
+  const double available = t_end - t_start_min;
+  const double cycles = std::floor(available / period_s + 1e-9);
+  if (cycles < 1.0) return range;
+  const double t_begin = t_end - cycles * period_s;
+  const auto first = std::lower_bound(t_s.begin(), t_s.end(), t_begin - 1e-12);
+  range.begin = static_cast<std::size_t>(first - t_s.begin());
+  range.end = t_s.size();
+  return range;
+}
+
+LocalLinearPoint local_linear_point(double freq_hz, double a1, double a2, double ar, double kp) {
+  LocalLinearPoint p;
+  p.freq_hz = freq_hz;
+  p.omega_rad_s = 2.0 * 3.14159265358979323846 * freq_hz;
+  p.a1 = a1;
+  p.a2 = a2;
+  p.ar = ar;
+  const double w = p.omega_rad_s;
+  const double den = a1 * a1 + a2 * (a2 - ar);
+  p.c_data = -w * ar * a1 / den;                  // eq. (19)
+  p.beta_data = w * w * (a1 * a1 + a2 * a2) / den;  // eq. (20)
+  p.alpha_data = kp * kp * w * w * (a1 * a1 + (ar - a2) * (ar - a2));  // eq. (36)
+  p.physical = den > 0.0 && p.c_data > 0.0 && std::isfinite(p.c_data) && std::isfinite(p.beta_data);
+  return p;
+}
+
+GlobalLinearFit global_linear_fit(const std::vector<LocalLinearPoint>& points, double kp) {
+  GlobalLinearFit out;
+  out.n_points = points.size();
+  if (points.empty()) {
+    out.message = "no sine points to fit";
+    return out;
+  }
+  // eq. (22): rows [ω A2, A1] and [−ω A1, A2 − Ar] times [C, β] = [A1 ω², A2 ω²].
+  // Note the sign of ω A1: substituting (14) into (13) gives −ω A1 C in the sine equation of (18);
+  // the printed "+ω A1" contradicts (19), which is verified (paper-notes), so we follow (19).
+  const Eigen::Index m = static_cast<Eigen::Index>(2 * points.size());
+  Eigen::MatrixXd a(m, 2);
+  Eigen::VectorXd b(m);
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    const auto& p = points[k];
+    const double w = p.omega_rad_s;
+    const Eigen::Index i = static_cast<Eigen::Index>(2 * k);
+    a(i, 0) = w * p.a2;
+    a(i, 1) = p.a1;
+    b(i) = p.a1 * w * w;
+    a(i + 1, 0) = -w * p.a1;
+    a(i + 1, 1) = p.a2 - p.ar;
+    b(i + 1) = p.a2 * w * w;
+  }
+  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(a);
+  if (qr.rank() < 2) {
+    out.message = "the regression (22) is rank deficient";
+    return out;
+  }
+  const Eigen::Vector2d x = qr.solve(b);
+  out.c_linear = x(0);
+  out.beta_linear = x(1);
+  out.beta_tilde_linear = kp != 0.0 ? x(1) / kp : 0.0;
+  out.rms_residual = std::sqrt((a * x - b).squaredNorm() / static_cast<double>(m));
+  out.valid = std::isfinite(x(0)) && std::isfinite(x(1));
+  if (out.valid && (x(0) <= 0.0 || x(1) <= 0.0)) {
+    out.message = "non-physical global linear fit (C_linear or beta_linear <= 0); restrict the band";
+  }
+  return out;
+}
+
+}  // namespace alphainv

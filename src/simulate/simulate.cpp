@@ -1,0 +1,322 @@
+#include "alphainv/simulate.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <memory>
+
+#include <cvode/cvode.h>
+#include <nvector/nvector_serial.h>
+#include <sundials/sundials_context.h>
+#include <sunlinsol/sunlinsol_dense.h>
+#include <sunmatrix/sunmatrix_dense.h>
+
+#include "alphainv/alpha.hpp"
+
+namespace alphainv {
+
+namespace {
+
+using State = std::array<double, 3>;  // θ, Φ = θ̇, z = ∫e dt
+
+/// Everything the right-hand side of (43) yields at one instant.
+struct RhsValue {
+  State dx{};
+  double v = 0.0, alpha = 0.0, damping = 0.0, beta_tilde = 0.0;
+};
+
+/// The closed loop (43) with the PID law (10); α by the fixed point (44)-(46).
+class ClosedLoop {
+ public:
+  ClosedLoop(const JointModelAtPose& model, const Controller& controller,
+             const SimulationOptions& options, SimulationResult& stats)
+      : model_(model), ctl_(controller), opt_(options), stats_(stats) {
+    // Coefficients at the run's inertia, computed once (eq. (40), (42)).
+    const auto& a = model.alpha;
+    n_ = a.n_breakpoints;
+    for (std::size_t k = 0; k < n_; ++k) c_at_[k] = 1.0 / (a.c_n1[k] * model.inertia);
+    b_at_[0] = 1.0 / (a.beta_n1[0] * model.inertia);
+    b_at_[1] = 1.0 / (a.beta_n1[1] * model.inertia);
+  }
+
+  RhsValue eval(const ReferenceSample& ref, const State& x) {
+    ++stats_.rhs_evaluations;
+    const double theta = x[0], phi = x[1], z = x[2];
+    const double e = ref.r - theta;
+    const bool d_on_err = ctl_.derivative_on == DerivativeOn::kError;
+    const double d = d_on_err ? ref.r_dot - phi : -phi;
+    const double v_raw = ctl_.kp * e + ctl_.ki * z + ctl_.kd * d;
+    const double v = ctl_.clamp(v_raw);
+    const bool saturated = v != v_raw;
+    // v̇ and v̈ as functions of the unknown Φ̇ (eq. (44)). The kd contribution to v̈ needs r⃛ and Φ̈,
+    // which the scheme does not carry; it is dropped (exact for kd = 0, the paper's case).
+    auto v_dot_of = [&](double phi_dot) {
+      if (saturated) return 0.0;
+      return ctl_.kp * (ref.r_dot - phi) + ctl_.ki * e +
+             ctl_.kd * (d_on_err ? ref.r_ddot - phi_dot : -phi_dot);
+    };
+    auto v_ddot_of = [&](double phi_dot) {
+      if (saturated) return 0.0;
+      return ctl_.kp * (ref.r_ddot - phi_dot) + ctl_.ki * (ref.r_dot - phi);
+    };
+    RhsValue out;
+    out.v = v;
+    double c = model_.c_linear, b = model_.beta_tilde_linear;
+    double phi_dot = -c * phi + b * v;  // eq. (45) with erratum 4: the linear-model Φ̇
+    double alpha = alpha_instantaneous(v, v_dot_of(phi_dot), v_ddot_of(phi_dot));
+    if (model_.use_alpha) {
+      int it = 0;
+      for (;;) {
+        c = interpolate_held(model_.alpha.alpha.data(), c_at_.data(), n_, alpha);
+        b = interpolate_held(model_.alpha.beta_alpha.data(), b_at_.data(), 2, alpha);
+        phi_dot = -c * phi + b * v;  // eq. (44)
+        const double next = alpha_instantaneous(v, v_dot_of(phi_dot), v_ddot_of(phi_dot));
+        ++it;
+        const bool converged =
+            std::abs(next - alpha) < std::max(opt_.alpha_abs_tol, opt_.alpha_rel_tol * std::abs(next));
+        alpha = next;
+        if (converged || it >= opt_.max_iterations) {
+          if (!converged) ++stats_.fixed_point_not_converged;
+          break;
+        }
+      }
+      // Coefficients consistent with the final α (eq. (46) met).
+      c = interpolate_held(model_.alpha.alpha.data(), c_at_.data(), n_, alpha);
+      b = interpolate_held(model_.alpha.beta_alpha.data(), b_at_.data(), 2, alpha);
+      phi_dot = -c * phi + b * v;
+      stats_.fixed_point_iterations += it;
+      stats_.max_fixed_point_iterations = std::max(stats_.max_fixed_point_iterations, it);
+    }
+    out.alpha = alpha;
+    out.damping = c;
+    out.beta_tilde = b;
+    out.dx = {phi, phi_dot, e};
+    return out;
+  }
+
+ private:
+  const JointModelAtPose& model_;
+  const Controller& ctl_;
+  const SimulationOptions& opt_;
+  SimulationResult& stats_;
+  std::size_t n_ = 0;
+  std::array<double, kMaxBreakpoints> c_at_{};
+  std::array<double, 2> b_at_{};
+};
+
+/// Reference value at t; at the right end of a segment that ends in a jump, the left limit.
+ReferenceSample ref_at(const Reference& ref, double t, double segment_end, bool end_is_jump) {
+  if (end_is_jump && t >= segment_end - 1e-12 * std::max(1.0, std::abs(segment_end))) {
+    return ref.at(segment_end - 1e-9 * std::max(1.0, std::abs(segment_end)));
+  }
+  return ref.at(t);
+}
+
+void record(SimulationResult& res, double t, const State& x, const RhsValue& f) {
+  res.t.push_back(t);
+  res.theta.push_back(x[0]);
+  res.theta_dot.push_back(x[1]);
+  res.v.push_back(f.v);
+  res.alpha.push_back(f.alpha);
+  res.damping.push_back(f.damping);
+  res.beta_tilde.push_back(f.beta_tilde);
+}
+
+/// Splits [t0, t1] at the reference's discontinuities: returns segment end points (ascending).
+std::vector<double> segment_ends(const Reference& ref, double t0, double t1) {
+  std::vector<double> jumps;
+  ref.discontinuities(t0, t1, jumps);
+  jumps.push_back(t1);
+  std::sort(jumps.begin(), jumps.end());
+  jumps.erase(std::unique(jumps.begin(), jumps.end()), jumps.end());
+  return jumps;
+}
+
+bool state_finite(const State& x) {
+  return std::isfinite(x[0]) && std::isfinite(x[1]) && std::isfinite(x[2]);
+}
+
+void simulate_rk4(ClosedLoop& loop, const Reference& ref, const std::vector<double>& times,
+                  State x, const SimulationOptions& opt, SimulationResult& res) {
+  record(res, times[0], x, loop.eval(ref.at(times[0]), x));
+  for (std::size_t k = 0; k + 1 < times.size(); ++k) {
+    double t = times[k];
+    const std::vector<double> ends = segment_ends(ref, times[k], times[k + 1]);
+    for (std::size_t s = 0; s < ends.size(); ++s) {
+      const double seg_end = ends[s];
+      const bool end_is_jump = s + 1 < ends.size() || seg_end != times[k + 1];
+      const double span = seg_end - t;
+      if (span <= 0.0) continue;
+      const int steps = std::max(1, static_cast<int>(std::ceil(span / opt.max_step_s - 1e-9)));
+      const double h = span / steps;
+      for (int i = 0; i < steps; ++i) {
+        const double ts = t + i * h;
+        auto f = [&](double tt, const State& xx) {
+          return loop.eval(ref_at(ref, tt, seg_end, end_is_jump), xx).dx;
+        };
+        const State k1 = f(ts, x);
+        State x2, x3, x4;
+        for (int j = 0; j < 3; ++j) x2[j] = x[j] + 0.5 * h * k1[j];
+        const State k2 = f(ts + 0.5 * h, x2);
+        for (int j = 0; j < 3; ++j) x3[j] = x[j] + 0.5 * h * k2[j];
+        const State k3 = f(ts + 0.5 * h, x3);
+        for (int j = 0; j < 3; ++j) x4[j] = x[j] + h * k3[j];
+        const State k4 = f(ts + h, x4);
+        for (int j = 0; j < 3; ++j) x[j] += h / 6.0 * (k1[j] + 2 * k2[j] + 2 * k3[j] + k4[j]);
+      }
+      t = seg_end;
+    }
+    if (!state_finite(x)) {
+      res.message = "the state became non-finite at t = " + std::to_string(times[k + 1]) + " s";
+      return;
+    }
+    record(res, times[k + 1], x, loop.eval(ref.at(times[k + 1]), x));
+  }
+  res.ok = true;
+}
+
+struct CvodeUser {
+  ClosedLoop* loop;
+  const Reference* ref;
+  double segment_end;
+  bool end_is_jump;
+};
+
+int cvode_rhs(sunrealtype t, N_Vector y, N_Vector ydot, void* user) {
+  auto* u = static_cast<CvodeUser*>(user);
+  const double* yy = N_VGetArrayPointer(y);
+  const State x{yy[0], yy[1], yy[2]};
+  if (!state_finite(x)) return 1;  // recoverable: CVODE retries with a smaller step
+  const RhsValue f = u->loop->eval(ref_at(*u->ref, t, u->segment_end, u->end_is_jump), x);
+  double* dd = N_VGetArrayPointer(ydot);
+  dd[0] = f.dx[0];
+  dd[1] = f.dx[1];
+  dd[2] = f.dx[2];
+  return 0;
+}
+
+/// RAII for the SUNDIALS objects.
+struct CvodeHandles {
+  SUNContext ctx = nullptr;
+  N_Vector y = nullptr;
+  SUNMatrix a = nullptr;
+  SUNLinearSolver ls = nullptr;
+  void* mem = nullptr;
+  ~CvodeHandles() {
+    if (mem) CVodeFree(&mem);
+    if (ls) SUNLinSolFree(ls);
+    if (a) SUNMatDestroy(a);
+    if (y) N_VDestroy(y);
+    if (ctx) SUNContext_Free(&ctx);
+  }
+};
+
+void simulate_cvode(ClosedLoop& loop, const Reference& ref, const std::vector<double>& times,
+                    State x, const SimulationOptions& opt, SimulationResult& res) {
+  CvodeHandles h;
+  if (SUNContext_Create(nullptr, &h.ctx) != 0) {
+    res.message = "SUNContext_Create failed";
+    return;
+  }
+  h.y = N_VNew_Serial(3, h.ctx);
+  double* yy = N_VGetArrayPointer(h.y);
+  for (int j = 0; j < 3; ++j) yy[j] = x[static_cast<std::size_t>(j)];
+  h.mem = CVodeCreate(CV_BDF, h.ctx);
+  CvodeUser user{&loop, &ref, times.back(), false};
+  if (!h.mem || CVodeInit(h.mem, cvode_rhs, times[0], h.y) != CV_SUCCESS ||
+      CVodeSStolerances(h.mem, opt.cvode_rel_tol, opt.cvode_abs_tol) != CV_SUCCESS) {
+    res.message = "CVODE initialisation failed";
+    return;
+  }
+  h.a = SUNDenseMatrix(3, 3, h.ctx);
+  h.ls = SUNLinSol_Dense(h.y, h.a, h.ctx);
+  CVodeSetLinearSolver(h.mem, h.ls, h.a);
+  CVodeSetUserData(h.mem, &user);
+  CVodeSetMaxNumSteps(h.mem, 1000000);
+  CVodeSetMaxStep(h.mem, std::max(opt.max_step_s, 1e-6));
+
+  record(res, times[0], x, loop.eval(ref.at(times[0]), x));
+  const std::vector<double> ends = segment_ends(ref, times.front(), times.back());
+  std::size_t k = 1;
+  double t_now = times[0];
+  for (std::size_t s = 0; s < ends.size(); ++s) {
+    user.segment_end = ends[s];
+    user.end_is_jump = s + 1 < ends.size();
+    CVodeSetStopTime(h.mem, ends[s]);
+    if (s > 0) CVodeReInit(h.mem, t_now, h.y);
+    // Outputs inside this segment (and one exactly at its end).
+    while (k < times.size() && times[k] <= ends[s]) {
+      double t_ret = t_now;
+      const int flag = CVode(h.mem, times[k], h.y, &t_ret, CV_NORMAL);
+      if (flag < 0) {
+        res.message = "CVODE failed at t = " + std::to_string(t_ret) + " s (flag " +
+                      std::to_string(flag) + ")";
+        return;
+      }
+      t_now = t_ret;
+      const State xs{yy[0], yy[1], yy[2]};
+      record(res, times[k], xs, loop.eval(ref.at(times[k]), xs));
+      ++k;
+    }
+    if (t_now < ends[s]) {
+      double t_ret = t_now;
+      const int flag = CVode(h.mem, ends[s], h.y, &t_ret, CV_NORMAL);
+      if (flag < 0) {
+        res.message = "CVODE failed at t = " + std::to_string(t_ret) + " s";
+        return;
+      }
+      t_now = t_ret;
+    }
+  }
+  res.ok = true;
+}
+
+}  // namespace
+
+std::vector<double> uniform_times(double duration_s, double dt_s, double t0_s) {
+  std::vector<double> out;
+  if (!(dt_s > 0.0) || !(duration_s >= 0.0)) return out;
+  const auto n = static_cast<std::size_t>(std::floor(duration_s / dt_s + 0.5)) + 1;
+  out.reserve(n);
+  for (std::size_t k = 0; k < n; ++k) out.push_back(t0_s + static_cast<double>(k) * dt_s);
+  return out;
+}
+
+SimulationResult simulate(const JointModelAtPose& model, const Controller& controller,
+                          const Reference& reference, const std::vector<double>& times_s,
+                          const InitialState& initial, const SimulationOptions& options) {
+  SimulationResult res;
+  if (times_s.empty()) {
+    res.message = "no output times";
+    return res;
+  }
+  for (std::size_t k = 1; k < times_s.size(); ++k) {
+    if (!(times_s[k] > times_s[k - 1])) {
+      res.message = "output times must be strictly increasing (index " + std::to_string(k) + ")";
+      return res;
+    }
+  }
+  if (model.use_alpha && !model.alpha.valid()) {
+    res.message = "invalid alpha model (breakpoints must increase, coefficients be positive)";
+    return res;
+  }
+  if (!(model.inertia > 0.0)) {
+    res.message = "inertia must be positive";
+    return res;
+  }
+  const std::size_t n = times_s.size();
+  for (auto* v : {&res.t, &res.theta, &res.theta_dot, &res.v, &res.alpha, &res.damping,
+                  &res.beta_tilde}) {
+    v->reserve(n);
+  }
+  ClosedLoop loop(model, controller, options, res);
+  const State x0{initial.theta, initial.theta_dot, initial.integral};
+  if (options.integrator == Integrator::kCvode) {
+    simulate_cvode(loop, reference, times_s, x0, options, res);
+  } else {
+    simulate_rk4(loop, reference, times_s, x0, options, res);
+  }
+  return res;
+}
+
+}  // namespace alphainv
