@@ -1,0 +1,214 @@
+#include "alphainv/alpha_fit.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+
+#include <Eigen/Dense>
+
+namespace alphainv {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+/// Hat-basis row of the piecewise-linear interpolant held outside the breakpoints (eq. (38)).
+template <typename Row>
+void hat_row(const std::vector<double>& bp, double alpha, Row&& row) {
+  row.setZero();
+  const std::size_t n = bp.size();
+  if (alpha <= bp[0]) {
+    row(0) = 1.0;
+    return;
+  }
+  if (alpha >= bp[n - 1]) {
+    row(static_cast<Eigen::Index>(n - 1)) = 1.0;
+    return;
+  }
+  std::size_t k = 1;
+  while (alpha > bp[k]) ++k;
+  const double w = (alpha - bp[k - 1]) / (bp[k] - bp[k - 1]);
+  row(static_cast<Eigen::Index>(k - 1)) = 1.0 - w;
+  row(static_cast<Eigen::Index>(k)) = w;
+}
+
+/// Least squares through the origin y = b·x: slope and its standard error.
+void origin_regression(const std::vector<double>& x, const std::vector<double>& y, double& slope,
+                       double& se) {
+  double sxx = 0.0, sxy = 0.0;
+  for (std::size_t k = 0; k < x.size(); ++k) {
+    sxx += x[k] * x[k];
+    sxy += x[k] * y[k];
+  }
+  slope = sxy / sxx;
+  if (x.size() < 2) {
+    se = kNaN;
+    return;
+  }
+  double ss = 0.0;
+  for (std::size_t k = 0; k < x.size(); ++k) ss += std::pow(y[k] - slope * x[k], 2);
+  se = std::sqrt(ss / static_cast<double>(x.size() - 1) / sxx);
+}
+
+}  // namespace
+
+AlphaFitResult fit_alpha_model_at(const std::vector<AlphaFitPose>& poses,
+                                  const std::vector<double>& bp, const AlphaFitOptions& options) {
+  AlphaFitResult out;
+  const std::size_t n = bp.size();
+  if (n < 2 || n > kMaxBreakpoints) {
+    out.message = "the number of breakpoints must be in [2, " + std::to_string(kMaxBreakpoints) + "]";
+    return out;
+  }
+  for (std::size_t k = 1; k < n; ++k) {
+    if (!(bp[k] > bp[k - 1])) {
+      out.message = "breakpoints must strictly increase";
+      return out;
+    }
+  }
+  std::vector<double> inertia;  // one per usable pose
+  std::vector<std::vector<double>> c_by_bp(n), b_by_end(2);
+  for (const AlphaFitPose& pose : poses) {
+    std::vector<const LocalLinearPoint*> pts;
+    for (const auto& p : pose.points) {
+      if (p.physical && std::isfinite(p.alpha_data) && p.beta_data > 0.0) pts.push_back(&p);
+    }
+    if (pts.size() < 2 || !(pose.inertia > 0.0)) continue;
+    const auto m = static_cast<Eigen::Index>(pts.size());
+    const auto nn = static_cast<Eigen::Index>(n);
+    // Stage 1, damping: relative least squares of C_data on the hat basis, with a small ridge
+    // towards the pose's mean C so that segments without points stay determined.
+    double c_mean = 0.0;
+    for (const auto* p : pts) c_mean += p->c_data / static_cast<double>(pts.size());
+    Eigen::MatrixXd a = Eigen::MatrixXd::Zero(m + nn, nn);
+    Eigen::VectorXd y = Eigen::VectorXd::Zero(m + nn);
+    for (Eigen::Index i = 0; i < m; ++i) {
+      hat_row(bp, pts[static_cast<std::size_t>(i)]->alpha_data, a.row(i));
+      const double w = 1.0 / pts[static_cast<std::size_t>(i)]->c_data;
+      a.row(i) *= w;
+      y(i) = 1.0;
+    }
+    const double lam = std::sqrt(options.ridge);
+    for (Eigen::Index j = 0; j < nn; ++j) {
+      a(m + j, j) = lam / c_mean;
+      y(m + j) = lam;
+    }
+    const Eigen::VectorXd c = a.colPivHouseholderQr().solve(y);
+    // Stage 1, torque constant: β̃_data = β_data/kp linear in α between ᾱ0 = α0 and ᾱ1 = α_{N−1}.
+    Eigen::MatrixXd ab(m, 2);
+    Eigen::VectorXd yb(m);
+    for (Eigen::Index i = 0; i < m; ++i) {
+      const auto* p = pts[static_cast<std::size_t>(i)];
+      const double s = std::clamp((p->alpha_data - bp[0]) / (bp[n - 1] - bp[0]), 0.0, 1.0);
+      const double bt = p->beta_data / options.kp;
+      ab(i, 0) = (1.0 - s) / bt;
+      ab(i, 1) = s / bt;
+      yb(i) = 1.0;
+    }
+    const Eigen::Vector2d b = ab.colPivHouseholderQr().solve(yb);
+    if (!c.allFinite() || !b.allFinite() || (c.array() <= 0.0).any() || (b.array() <= 0.0).any()) {
+      continue;  // this pose cannot support the model; stage 2 goes on without it
+    }
+    inertia.push_back(pose.inertia);
+    std::vector<double> cv(n);
+    for (std::size_t j = 0; j < n; ++j) {
+      cv[j] = c(static_cast<Eigen::Index>(j));
+      c_by_bp[j].push_back(1.0 / cv[j]);  // eq. (40) inverted: 1/C_n = C_n1·I
+    }
+    out.pose_c.push_back(cv);
+    out.pose_beta_tilde.push_back({b(0), b(1)});
+    b_by_end[0].push_back(1.0 / b(0));  // eq. (42) inverted: 1/β̃_n = β̃_n1·I
+    b_by_end[1].push_back(1.0 / b(1));
+  }
+  if (inertia.empty()) {
+    out.message = "no pose has two or more physical sine points with a positive fit";
+    return out;
+  }
+  // Stage 2: ordinary least squares through the origin across poses.
+  AlphaModel& model = out.model;
+  model.n_breakpoints = n;
+  for (std::size_t j = 0; j < n; ++j) {
+    model.alpha[j] = bp[j];
+    origin_regression(inertia, c_by_bp[j], model.c_n1[j], out.c_n1_se[j]);
+  }
+  model.beta_alpha = {bp[0], bp[n - 1]};
+  origin_regression(inertia, b_by_end[0], model.beta_n1[0], out.beta_n1_se[0]);
+  origin_regression(inertia, b_by_end[1], model.beta_n1[1], out.beta_n1_se[1]);
+  // Quality on the data.
+  double sc = 0.0, sb = 0.0;
+  std::size_t count = 0;
+  for (const AlphaFitPose& pose : poses) {
+    for (const auto& p : pose.points) {
+      if (!p.physical || !(pose.inertia > 0.0)) continue;
+      sc += std::pow(model.damping(p.alpha_data, pose.inertia) / p.c_data - 1.0, 2);
+      sb += std::pow(model.beta_tilde(p.alpha_data, pose.inertia) * options.kp / p.beta_data - 1.0, 2);
+      ++count;
+    }
+  }
+  out.points_used = count;
+  out.c_rms_relative = std::sqrt(sc / static_cast<double>(count));
+  out.beta_rms_relative = std::sqrt(sb / static_cast<double>(count));
+  out.ok = model.valid();
+  out.message = out.ok ? "ok" : "the fitted model is not valid (non-positive coefficients)";
+  return out;
+}
+
+AlphaFitResult fit_alpha_model(const std::vector<AlphaFitPose>& poses,
+                               const AlphaFitOptions& options) {
+  AlphaFitResult best;
+  best.message = "no candidate breakpoints";
+  const std::size_t n = options.n_breakpoints;
+  if (n < 2 || n > kMaxBreakpoints) {
+    best.message = "n_breakpoints must be in [2, " + std::to_string(kMaxBreakpoints) + "]";
+    return best;
+  }
+  double lo = std::numeric_limits<double>::infinity(), hi = 0.0;
+  for (const auto& pose : poses) {
+    for (const auto& p : pose.points) {
+      if (p.physical && p.alpha_data > 0.0 && std::isfinite(p.alpha_data)) {
+        lo = std::min(lo, p.alpha_data);
+        hi = std::max(hi, p.alpha_data);
+      }
+    }
+  }
+  if (!(hi > lo)) {
+    best.message = "need physical sine points at two or more distinct alpha values";
+    return best;
+  }
+  // Log-spaced grid from the smallest to twice the largest α of the data.
+  const std::size_t g = std::max<std::size_t>(options.grid_size, n);
+  std::vector<double> grid(g);
+  for (std::size_t k = 0; k < g; ++k) {
+    grid[k] = lo * std::pow(2.0 * hi / lo, static_cast<double>(k) / static_cast<double>(g - 1));
+  }
+  // Exhaustive search over increasing (N−1)-subsets of the grid; α0 = 0.
+  std::vector<std::size_t> idx(n - 1);
+  double best_score = std::numeric_limits<double>::infinity();
+  std::size_t tried = 0;
+  std::function<void(std::size_t, std::size_t)> rec = [&](std::size_t depth, std::size_t start) {
+    if (depth == n - 1) {
+      std::vector<double> bp(n, 0.0);
+      for (std::size_t j = 0; j + 1 < n; ++j) bp[j + 1] = grid[idx[j]];
+      ++tried;
+      AlphaFitResult r = fit_alpha_model_at(poses, bp, options);
+      if (!r.ok) return;
+      const double score = r.c_rms_relative * r.c_rms_relative + r.beta_rms_relative * r.beta_rms_relative;
+      if (score < best_score) {
+        best_score = score;
+        best = std::move(r);
+      }
+      return;
+    }
+    for (std::size_t k = start; k < g; ++k) {
+      idx[depth] = k;
+      rec(depth + 1, k + 1);
+    }
+  };
+  rec(0, 0);
+  best.candidates_tried = tried;
+  if (!best.ok && best.message == "no candidate breakpoints") best.message = "no breakpoint set gave a valid model";
+  return best;
+}
+
+}  // namespace alphainv

@@ -1,0 +1,112 @@
+#include "alphainv/alpha_fit.hpp"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "alphainv/inertia_model.hpp"
+#include "alphainv/simulate.hpp"
+
+namespace alphainv {
+namespace {
+
+/// Local points of one pose from the α-model simulated (fixed point + RK4) at the Table 1 sweep.
+AlphaFitPose simulated_pose(const AlphaModel& truth, double inertia, double kp, double ar) {
+  AlphaFitPose pose;
+  pose.inertia = inertia;
+  JointModelAtPose m;
+  m.inertia = inertia;
+  m.alpha = truth;
+  m.c_linear = truth.damping(25.0, inertia);
+  m.beta_tilde_linear = truth.beta_tilde(25.0, inertia);
+  Controller ctl;
+  ctl.kp = kp;
+  for (double f : {1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0, 7.0}) {
+    const SineReference ref(ar, f);
+    const auto times = uniform_times(8.0, 1e-3);
+    const SimulationResult res = simulate(m, ctl, ref, times);
+    EXPECT_TRUE(res.ok);
+    const IndexRange win = steady_state_window(times, f, 5.0);
+    const SineFit fit = fit_sine(times.data() + win.begin, res.theta.data() + win.begin, win.size(),
+                                 2 * kPi * f);
+    pose.points.push_back(local_linear_point(f, fit.a1, fit.a2, ar, kp));
+  }
+  return pose;
+}
+
+std::vector<AlphaFitPose> paper_poses(const AlphaModel& truth) {
+  // Table 5's true angles.
+  const double angles[9][2] = {{21.54, 69.54}, {20.55, 88.54}, {19.31, 112.44},
+                               {40.68, 68.52}, {39.83, 87.63}, {39.16, 111.98},
+                               {60.68, 67.62}, {60.08, 87.00}, {59.56, 111.45}};
+  const InertiaModel im = paper_inertia_model();
+  std::vector<AlphaFitPose> poses;
+  for (const auto& a : angles) {
+    poses.push_back(simulated_pose(truth, im.inertia(deg_to_rad(a[0]), deg_to_rad(a[1])), 2.0, 0.07));
+  }
+  return poses;
+}
+
+TEST(AlphaFit, SteadyStateOfAlphaModelIsOnTheModel) {
+  // In the sinusoidal steady state α is constant, so the loop is linear at C(α), β̃(α): the local
+  // points (19)-(20) must lie on the model at α_data (36).
+  const AlphaModel truth = paper_alpha_model();
+  const double i = 0.004366;
+  const AlphaFitPose pose = simulated_pose(truth, i, 2.0, 0.07);
+  int physical = 0;
+  for (const auto& p : pose.points) {
+    if (!p.physical) continue;
+    ++physical;
+    EXPECT_NEAR(p.c_data, truth.damping(p.alpha_data, i), 0.01 * p.c_data) << p.freq_hz;
+    EXPECT_NEAR(p.beta_data / 2.0, truth.beta_tilde(p.alpha_data, i), 0.005 * p.beta_data / 2.0);
+  }
+  EXPECT_GE(physical, 7);
+}
+
+TEST(AlphaFit, RecoversPaperModelWithKnownBreakpoints) {
+  const AlphaModel truth = paper_alpha_model();
+  const auto poses = paper_poses(truth);
+  AlphaFitOptions opt;
+  const AlphaFitResult r = fit_alpha_model_at(poses, {0.0, 2.2, 25.0, 250.0}, opt);
+  ASSERT_TRUE(r.ok) << r.message;
+  // Identifiable: the breakpoints the data's α (≈ 0.1 … 150) brackets.
+  for (std::size_t n = 1; n < 4; ++n) {
+    EXPECT_NEAR(r.model.c_n1[n], truth.c_n1[n], 0.02 * truth.c_n1[n]) << "C_" << n << "1";
+  }
+  EXPECT_NEAR(r.model.beta_n1[0], truth.beta_n1[0], 0.02 * truth.beta_n1[0]);
+  EXPECT_NEAR(r.model.beta_n1[1], truth.beta_n1[1], 0.02 * truth.beta_n1[1]);
+  EXPECT_LT(r.c_rms_relative, 0.01);
+  EXPECT_LT(r.beta_rms_relative, 0.005);
+}
+
+TEST(AlphaFit, GridSearchPredictsDampingOfUnseenModel) {
+  // A different truth (not the paper's numbers): the searched model predicts C and β̃ on the data.
+  AlphaModel truth;
+  truth.n_breakpoints = 4;
+  truth.alpha = {0.0, 5.0, 40.0, 300.0};
+  truth.c_n1 = {10.0, 18.0, 30.0, 50.0};
+  truth.beta_alpha = {0.0, 300.0};
+  truth.beta_n1 = {0.9, 1.2};
+  const auto poses = paper_poses(truth);
+  const AlphaFitResult r = fit_alpha_model(poses, AlphaFitOptions{});
+  ASSERT_TRUE(r.ok) << r.message;
+  EXPECT_GT(r.candidates_tried, 100u);
+  EXPECT_LT(r.c_rms_relative, 0.03);
+  EXPECT_LT(r.beta_rms_relative, 0.01);
+}
+
+TEST(AlphaFit, BadInputGivesMessage) {
+  EXPECT_FALSE(fit_alpha_model({}, AlphaFitOptions{}).ok);
+  AlphaFitOptions opt;
+  opt.n_breakpoints = 1;
+  EXPECT_FALSE(fit_alpha_model({}, opt).ok);
+  EXPECT_FALSE(fit_alpha_model_at({}, {0.0, 1.0, 1.0}, AlphaFitOptions{}).ok);
+  AlphaFitPose nonphysical;
+  nonphysical.points.push_back(local_linear_point(1.5, -0.002, 0.02, 0.07, 2.0));
+  const AlphaFitResult r = fit_alpha_model({nonphysical}, AlphaFitOptions{});
+  EXPECT_FALSE(r.ok);
+  EXPECT_FALSE(r.message.empty());
+}
+
+}  // namespace
+}  // namespace alphainv
