@@ -1,0 +1,254 @@
+#include "alphainv/model_file.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <limits>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "alphainv/error.hpp"
+
+namespace alphainv {
+
+namespace {
+
+using nlohmann::json;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+json num(double x) { return std::isfinite(x) ? json(x) : json(nullptr); }
+
+double get_num(const json& obj, const char* key, const std::string& file, const std::string& path,
+               bool allow_null = false) {
+  if (!obj.is_object() || !obj.contains(key)) {
+    throw Error("missing key", file, 0, path + key);
+  }
+  const json& v = obj.at(key);
+  if (v.is_null() && allow_null) return kNaN;
+  if (!v.is_number()) throw Error("expected a number, found " + v.dump(), file, 0, path + key);
+  const double x = v.get<double>();
+  if (!std::isfinite(x)) throw Error("expected a finite number", file, 0, path + key);
+  return x;
+}
+
+template <std::size_t N>
+std::array<double, N> get_array(const json& obj, const char* key, std::size_t n,
+                                const std::string& file, const std::string& path, bool allow_null) {
+  std::array<double, N> out{};
+  out.fill(kNaN);
+  if (!obj.contains(key) || !obj.at(key).is_array()) throw Error("expected an array", file, 0, path + key);
+  const json& a = obj.at(key);
+  if (a.size() != n) {
+    throw Error("expected " + std::to_string(n) + " entries, found " + std::to_string(a.size()), file,
+                0, path + key);
+  }
+  for (std::size_t k = 0; k < n; ++k) {
+    if (a[k].is_null() && allow_null) continue;
+    if (!a[k].is_number()) throw Error("expected a number", file, 0, path + key + "[" + std::to_string(k) + "]");
+    out[k] = a[k].get<double>();
+  }
+  return out;
+}
+
+}  // namespace
+
+std::string format_model_file(const ModelFile& m) {
+  json j;
+  j["schema"] = kModelSchema;
+  j["tool_version"] = m.tool_version;
+  j["dataset"] = {{"hash_fnv1a64", m.dataset_hash}, {"path", m.dataset_path}};
+  j["position_unit"] = m.position_unit;
+  j["command_unit"] = m.command_unit;
+  j["controller"] = {{"kp", m.controller.kp},
+                     {"ki", m.controller.ki},
+                     {"kd", m.controller.kd},
+                     {"derivative_on",
+                      m.controller.derivative_on == DerivativeOn::kError ? "error" : "measurement"},
+                     {"v_limit", num(m.controller.v_limit)}};
+  if (m.has_inertia_model) {
+    const InertiaModel& im = m.linear.inertia;
+    j["inertia_model"] = {
+        {"equation", "I = I_base + I1 cos^2 g1 + I2 cos^2 psi + I3 cos g1 cos psi, psi = pi - g1 - g2 - gamma_offs (eq. 6)"},
+        {"I_base", im.i_base}, {"I1", im.i1}, {"I2", im.i2}, {"I3", im.i3},
+        {"gamma_offs_rad", im.gamma_offs_rad}, {"C0_bar", m.linear.c0_bar},
+        {"standard_errors", {{"I_base", num(m.linear_se[0])}, {"I1", num(m.linear_se[1])},
+                             {"I2", num(m.linear_se[2])}, {"I3", num(m.linear_se[3])},
+                             {"gamma_offs_rad", num(m.linear_se[4])}, {"C0_bar", num(m.linear_se[5])}}}};
+  } else {
+    j["inertia_model"] = nullptr;
+  }
+  json poses = json::array();
+  for (const auto& p : m.poses) {
+    poses.push_back({{"gamma1_deg", p.gamma1_deg ? json(*p.gamma1_deg) : json(nullptr)},
+                     {"gamma2_deg", p.gamma2_deg ? json(*p.gamma2_deg) : json(nullptr)},
+                     {"C_linear", p.c_linear},
+                     {"beta_tilde_linear", p.beta_tilde_linear}});
+  }
+  j["poses"] = poses;
+  if (m.has_alpha_model) {
+    const AlphaModel& a = m.alpha;
+    json bp = json::array(), c = json::array(), cse = json::array();
+    for (std::size_t k = 0; k < a.n_breakpoints; ++k) {
+      bp.push_back(a.alpha[k]);
+      c.push_back(a.c_n1[k]);
+      cse.push_back(num(m.c_n1_se[k]));
+    }
+    j["alpha_model"] = {{"breakpoints", bp},
+                        {"C_n1", c},
+                        {"C_n1_se", cse},
+                        {"beta_alpha", {a.beta_alpha[0], a.beta_alpha[1]}},
+                        {"beta_n1", {a.beta_n1[0], a.beta_n1[1]}},
+                        {"beta_n1_se", {num(m.beta_n1_se[0]), num(m.beta_n1_se[1])}}};
+  } else {
+    j["alpha_model"] = nullptr;
+  }
+  j["notes"] = m.notes;
+  return j.dump(2) + "\n";
+}
+
+ModelFile parse_model_file(const std::string& text, const std::string& file) {
+  json j;
+  try {
+    j = json::parse(text);
+  } catch (const json::parse_error& e) {
+    throw Error(std::string("malformed JSON: ") + e.what(), file);
+  }
+  if (!j.is_object()) throw Error("expected a JSON object", file);
+  if (!j.contains("schema") || !j["schema"].is_string()) throw Error("missing key", file, 0, "schema");
+  if (j["schema"].get<std::string>() != kModelSchema) {
+    throw Error("expected \"" + std::string(kModelSchema) + "\", found " + j["schema"].dump(), file, 0,
+                "schema");
+  }
+  ModelFile m;
+  m.tool_version = j.value("tool_version", "");
+  if (j.contains("dataset") && j["dataset"].is_object()) {
+    m.dataset_hash = j["dataset"].value("hash_fnv1a64", "");
+    m.dataset_path = j["dataset"].value("path", "");
+  }
+  m.position_unit = j.value("position_unit", "rad");
+  m.command_unit = j.value("command_unit", "V");
+  if (!j.contains("controller") || !j["controller"].is_object()) throw Error("missing key", file, 0, "controller");
+  const json& c = j["controller"];
+  m.controller.kp = get_num(c, "kp", file, "controller.");
+  m.controller.ki = get_num(c, "ki", file, "controller.");
+  m.controller.kd = get_num(c, "kd", file, "controller.");
+  const double vl = get_num(c, "v_limit", file, "controller.", true);
+  m.controller.v_limit = std::isfinite(vl) ? vl : std::numeric_limits<double>::infinity();
+  const std::string d = c.value("derivative_on", "error");
+  if (d != "error" && d != "measurement") throw Error("expected error or measurement", file, 0, "controller.derivative_on");
+  m.controller.derivative_on = d == "error" ? DerivativeOn::kError : DerivativeOn::kMeasurement;
+  if (j.contains("inertia_model") && !j["inertia_model"].is_null()) {
+    const json& im = j["inertia_model"];
+    m.has_inertia_model = true;
+    m.linear.inertia.i_base = get_num(im, "I_base", file, "inertia_model.");
+    m.linear.inertia.i1 = get_num(im, "I1", file, "inertia_model.");
+    m.linear.inertia.i2 = get_num(im, "I2", file, "inertia_model.");
+    m.linear.inertia.i3 = get_num(im, "I3", file, "inertia_model.");
+    m.linear.inertia.gamma_offs_rad = get_num(im, "gamma_offs_rad", file, "inertia_model.");
+    m.linear.c0_bar = get_num(im, "C0_bar", file, "inertia_model.");
+    if (!(m.linear.c0_bar > 0.0)) throw Error("expected C0_bar > 0", file, 0, "inertia_model.C0_bar");
+    m.linear_se.fill(kNaN);
+    if (im.contains("standard_errors") && im["standard_errors"].is_object()) {
+      const json& se = im["standard_errors"];
+      const char* names[6] = {"I_base", "I1", "I2", "I3", "gamma_offs_rad", "C0_bar"};
+      for (int k = 0; k < 6; ++k) {
+        m.linear_se[static_cast<std::size_t>(k)] =
+            get_num(se, names[k], file, "inertia_model.standard_errors.", true);
+      }
+    }
+  }
+  if (j.contains("poses") && j["poses"].is_array()) {
+    std::size_t k = 0;
+    for (const json& p : j["poses"]) {
+      const std::string path = "poses[" + std::to_string(k++) + "].";
+      PoseLinearModel pl;
+      const double g1 = get_num(p, "gamma1_deg", file, path, true);
+      const double g2 = get_num(p, "gamma2_deg", file, path, true);
+      if (std::isfinite(g1)) pl.gamma1_deg = g1;
+      if (std::isfinite(g2)) pl.gamma2_deg = g2;
+      pl.c_linear = get_num(p, "C_linear", file, path);
+      pl.beta_tilde_linear = get_num(p, "beta_tilde_linear", file, path);
+      m.poses.push_back(pl);
+    }
+  }
+  if (j.contains("alpha_model") && !j["alpha_model"].is_null()) {
+    const json& a = j["alpha_model"];
+    if (!a.contains("breakpoints") || !a["breakpoints"].is_array()) {
+      throw Error("expected an array", file, 0, "alpha_model.breakpoints");
+    }
+    const std::size_t n = a["breakpoints"].size();
+    if (n < 2 || n > kMaxBreakpoints) {
+      throw Error("expected 2 to " + std::to_string(kMaxBreakpoints) + " breakpoints, found " +
+                      std::to_string(n), file, 0, "alpha_model.breakpoints");
+    }
+    m.has_alpha_model = true;
+    m.alpha.n_breakpoints = n;
+    m.alpha.alpha = get_array<kMaxBreakpoints>(a, "breakpoints", n, file, "alpha_model.", false);
+    m.alpha.c_n1 = get_array<kMaxBreakpoints>(a, "C_n1", n, file, "alpha_model.", false);
+    m.alpha.beta_alpha = get_array<2>(a, "beta_alpha", 2, file, "alpha_model.", false);
+    m.alpha.beta_n1 = get_array<2>(a, "beta_n1", 2, file, "alpha_model.", false);
+    if (a.contains("C_n1_se")) m.c_n1_se = get_array<kMaxBreakpoints>(a, "C_n1_se", n, file, "alpha_model.", true);
+    if (a.contains("beta_n1_se")) m.beta_n1_se = get_array<2>(a, "beta_n1_se", 2, file, "alpha_model.", true);
+    if (!m.alpha.valid()) {
+      throw Error("breakpoints must increase and C_n1, beta_n1 be positive", file, 0, "alpha_model");
+    }
+  }
+  if (j.contains("notes") && j["notes"].is_array()) {
+    for (const json& n : j["notes"]) {
+      if (n.is_string()) m.notes.push_back(n.get<std::string>());
+    }
+  }
+  return m;
+}
+
+void write_model_file(const std::filesystem::path& path, const ModelFile& model) {
+  const std::string text = format_model_file(model);
+  std::filesystem::path tmp = path;
+  tmp += ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) throw Error("cannot open for writing", tmp.string());
+    out << text;
+    out.flush();
+    if (!out) throw Error("write failed", tmp.string());
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) {
+    std::filesystem::remove(tmp, ec);
+    throw Error("cannot rename the temporary file into place", path.string());
+  }
+}
+
+ModelFile read_model_file(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error("cannot open the model file", path.string());
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return parse_model_file(ss.str(), path.string());
+}
+
+std::string hash_dataset(const std::filesystem::path& dir, const std::vector<std::string>& run_files) {
+  std::uint64_t h = 1469598103934665603ULL;
+  auto feed = [&](const std::filesystem::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    if (!in) throw Error("cannot open for hashing", p.string());
+    char buf[65536];
+    while (in) {
+      in.read(buf, sizeof buf);
+      const std::streamsize got = in.gcount();
+      for (std::streamsize k = 0; k < got; ++k) {
+        h ^= static_cast<unsigned char>(buf[k]);
+        h *= 1099511628211ULL;
+      }
+    }
+  };
+  feed(dir / "dataset.json");
+  for (const auto& f : run_files) feed(dir / f);
+  char hex[17];
+  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(h));
+  return hex;
+}
+
+}  // namespace alphainv
