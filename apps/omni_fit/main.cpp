@@ -12,6 +12,7 @@
 #include "alphainv/inertia_model.hpp"
 #include "alphainv/metrics.hpp"
 #include "alphainv/simulate.hpp"
+#include "fit_command.hpp"
 
 namespace {
 
@@ -86,8 +87,25 @@ int main(int argc, char** argv) {
   demo->add_option("--kp", kp, "proportional gain [V/rad]")->capture_default_str()
       ->check(CLI::PositiveNumber);
   demo->add_flag("--cvode", cvode, "integrate with SUNDIALS CVODE instead of the fixed-point scheme");
-  app.footer("Example:\n  omni_fit demo --gamma1 60.08 --gamma2 87 --amplitude 0.07");
-  CLI11_PARSE(app, argc, argv);
+  auto* fitc = app.add_subcommand("fit", "identify the linear, inertia and alpha-invariant models of a dataset");
+  omni_fit::FitCommandOptions fo;
+  fitc->add_option("dataset", fo.dataset_dir, "dataset folder (alphainv-dataset/1)")->required();
+  fitc->add_option("-o,--out", fo.out_dir, "output folder for model.json and report.md")->required();
+  fitc->add_flag("--json", fo.json, "print one JSON object with the headline figures to stdout");
+  fitc->add_flag("-q,--quiet", fo.quiet, "print nothing but errors");
+  fitc->add_option("--threads", fo.threads, "threads for the validation runs (default: all cores)");
+  fitc->add_option("--breakpoints", fo.n_breakpoints, "number of alpha breakpoints N (2..8)")
+      ->capture_default_str()->check(CLI::Range(2, 8));
+  app.footer("Examples:\n  omni_fit fit data/omni_yaw_sim -o out/fit --json\n"
+             "  omni_fit demo --gamma1 60.08 --gamma2 87 --amplitude 0.07\n"
+             "Exit codes: 0 ok, 1 usage, 2 bad input (the message names the file), 3 nothing could be fitted.");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    return code == 0 ? 0 : 1;
+  }
   if (*demo) return run_demo(g1, g2, amp, kp, cvode);
+  if (*fitc) return omni_fit::run_fit(fo);
   return 0;
 }

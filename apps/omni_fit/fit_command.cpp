@@ -1,0 +1,230 @@
+#include "fit_command.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <unistd.h>
+
+#include <nlohmann/json.hpp>
+
+#include "alphainv/dataset.hpp"
+#include "alphainv/error.hpp"
+#include "alphainv/fit_pipeline.hpp"
+#include "alphainv/model_file.hpp"
+
+namespace omni_fit {
+
+namespace {
+
+using namespace alphainv;
+namespace fs = std::filesystem;
+
+nlohmann::json num(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); }
+
+std::string fmt(double x, const char* f = "%.4g") {
+  if (!std::isfinite(x)) return "–";
+  char b[64];
+  std::snprintf(b, sizeof b, f, x);
+  return b;
+}
+
+std::string pose_label(const PoseFit& p) {
+  if (!p.gamma1_deg) return "(no pose)";
+  return fmt(*p.gamma1_deg, "%.2f") + "° / " + fmt(*p.gamma2_deg, "%.2f") + "°";
+}
+
+void write_atomic(const fs::path& path, const std::string& text) {
+  fs::path tmp = path;
+  tmp += ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) throw Error("cannot open for writing", tmp.string());
+    out << text;
+    if (!out.flush()) throw Error("write failed", tmp.string());
+  }
+  fs::rename(tmp, path);
+}
+
+std::string make_report(const Dataset& ds, const DatasetFit& fit, const ModelFile& model) {
+  std::ostringstream r;
+  r << "# omni_fit report\n\n";
+  r << "Dataset: `" << ds.dir.string() << "` (" << ds.runs.size() << " runs, " << fit.poses.size()
+    << " poses, position unit " << ds.position_unit << ", command unit " << ds.command_unit
+    << "), hash " << model.dataset_hash << ".\n\n";
+  if (!fit.notes.empty()) {
+    r << "## What the data could and could not support\n\n";
+    for (const auto& n : fit.notes) r << "- " << n << "\n";
+    r << "\n";
+  }
+  r << "## Local linear points (eqs. 19, 20, 36)\n\n| run | pose | f [Hz] | gain | phase [°] | C_data | "
+       "β_data | α_data | physical |\n|---|---|---|---|---|---|---|---|---|\n";
+  for (const auto& sp : fit.sine_points) {
+    r << "| " << ds.runs[sp.run].file << " | " << pose_label(fit.poses[sp.pose]) << " | "
+      << fmt(sp.point.freq_hz) << " | " << fmt(sp.gain) << " | " << fmt(sp.phase_deg, "%.2f") << " | "
+      << fmt(sp.point.c_data) << " | " << fmt(sp.point.beta_data) << " | " << fmt(sp.point.alpha_data)
+      << " | " << (sp.point.physical ? "yes" : "**no**") << " |\n";
+  }
+  r << "\n## Global linear model per pose (eq. 22)\n\n| pose | band [Hz] | C_linear | β_linear | "
+       "β̃_linear | I (model) |\n|---|---|---|---|---|---|\n";
+  for (const auto& p : fit.poses) {
+    if (!p.linear.valid) continue;
+    r << "| " << pose_label(p) << " | " << fmt(p.band_lo_hz, "%.2f") << "–" << fmt(p.band_hi_hz, "%.2f")
+      << " | " << fmt(p.linear.c_linear) << " | " << fmt(p.linear.beta_linear) << " | "
+      << fmt(p.linear.beta_tilde_linear) << " | " << fmt(p.inertia, "%.6g") << " |\n";
+  }
+  r << "\nBand: [f_res/1.3, 1.3 f_res] around the frequency of largest measured gain (the paper uses "
+       "3–4.5 Hz around its 3.4 Hz resonance), all physical points when fewer than two fall in it.\n";
+  if (fit.has_inertia_model) {
+    const auto& s = fit.inertia;
+    r << "\n## Inertia model (eqs. 6, 27–29, Ceres)\n\n| parameter | value | standard error | poorly "
+         "determined |\n|---|---|---|---|\n";
+    for (int k = 0; k < kInertiaFitParameterCount; ++k) {
+      r << "| " << inertia_fit_parameter_name(k) << " | " << fmt(s.parameters[static_cast<std::size_t>(k)], "%.5g")
+        << " | " << fmt(s.standard_errors[static_cast<std::size_t>(k)], "%.3g") << " | "
+        << (s.poorly_determined[static_cast<std::size_t>(k)] ? "yes" : "no") << " |\n";
+    }
+    r << "\nRMS relative error of the model: C_linear " << fmt(100 * s.rms_relative_c, "%.2f")
+      << " %, β̃_linear " << fmt(100 * s.rms_relative_beta_tilde, "%.2f") << " %.";
+    if (!s.warning.empty()) r << " Warning: " << s.warning;
+    r << "\n";
+  }
+  if (fit.alpha.ok) {
+    const AlphaModel& a = fit.alpha.model;
+    r << "\n## α-invariant model (eqs. 38–42; breakpoints by exhaustive grid search over "
+      << fit.alpha.candidates_tried << " sets)\n\n| n | α_n | C_n1 | SE |\n|---|---|---|---|\n";
+    for (std::size_t k = 0; k < a.n_breakpoints; ++k) {
+      r << "| " << k << " | " << fmt(a.alpha[k]) << " | " << fmt(a.c_n1[k]) << " | "
+        << fmt(fit.alpha.c_n1_se[k], "%.3g") << " |\n";
+    }
+    r << "\nβ̃_n1 = " << fmt(a.beta_n1[0]) << " at α = " << fmt(a.beta_alpha[0]) << ", "
+      << fmt(a.beta_n1[1]) << " at α = " << fmt(a.beta_alpha[1]) << ". RMS relative error on the "
+      << "data: C " << fmt(100 * fit.alpha.c_rms_relative, "%.2f") << " %, β̃ "
+      << fmt(100 * fit.alpha.beta_rms_relative, "%.2f") << " %.\n";
+  }
+  r << "\n## Validation: every run simulated under its own controller\n\n"
+       "Table 8 style (90th percentile over each pose's sweep) and Table 11 style (|θ_sim − θ| of "
+       "square/step runs, median and 90th percentile), per pose:\n\n"
+       "| pose | lin mag p90 | lin phase p90 [°] | α mag p90 | α phase p90 [°] | lin step median | lin "
+       "step p90 | α step median | α step p90 |\n|---|---|---|---|---|---|---|---|---|\n";
+  for (const auto& p : fit.poses) {
+    r << "| " << pose_label(p) << " | " << fmt(p.lin_magnitude_p90) << " | " << fmt(p.lin_phase_p90_deg)
+      << " | " << fmt(p.alpha_magnitude_p90) << " | " << fmt(p.alpha_phase_p90_deg) << " | "
+      << fmt(p.lin_step_median) << " | " << fmt(p.lin_step_p90) << " | " << fmt(p.alpha_step_median)
+      << " | " << fmt(p.alpha_step_p90) << " |\n";
+  }
+  r << "| **median** | " << fmt(fit.lin_magnitude_p90) << " | " << fmt(fit.lin_phase_p90_deg) << " | "
+    << fmt(fit.alpha_magnitude_p90) << " | " << fmt(fit.alpha_phase_p90_deg) << " | "
+    << fmt(fit.lin_step_median) << " | " << fmt(fit.lin_step_p90) << " | " << fmt(fit.alpha_step_median)
+    << " | " << fmt(fit.alpha_step_p90) << " |\n";
+  r << "\nRelative position error ‖θ_sim − θ‖/‖θ‖ per run:\n\n| run | linear | α-model |\n|---|---|---|\n";
+  for (const auto& v : fit.validation) {
+    if (!v.simulated) continue;
+    r << "| " << ds.runs[v.run].file << " | " << fmt(100 * v.lin_rel_position_error, "%.4f") << " % | "
+      << fmt(100 * v.alpha_rel_position_error, "%.4f") << " % |\n";
+  }
+  return r.str();
+}
+
+}  // namespace
+
+int run_fit(const FitCommandOptions& opt) {
+  Dataset ds;
+  std::vector<RunData> data;
+  try {
+    ds = read_dataset_index(opt.dataset_dir);
+    for (std::size_t i = 0; i < ds.runs.size(); ++i) {
+      if (!opt.quiet && isatty(fileno(stderr))) {
+        std::fprintf(stderr, "\rreading run %zu/%zu", i + 1, ds.runs.size());
+      }
+      data.push_back(read_run(ds, i));
+    }
+    if (!opt.quiet && isatty(fileno(stderr))) std::fprintf(stderr, "\n");
+  } catch (const Error& e) {
+    std::fprintf(stderr, "omni_fit fit: %s\n", e.what());
+    return 2;
+  }
+  FitPipelineOptions popt;
+  popt.threads = opt.threads;
+  popt.n_breakpoints = opt.n_breakpoints;
+  const DatasetFit fit = fit_dataset(ds, data, popt);
+
+  ModelFile model;
+  model.tool_version = "alphainv 0.1.0";
+  std::vector<std::string> files;
+  for (const auto& r : ds.runs) files.push_back(r.file);
+  try {
+    model.dataset_hash = hash_dataset(ds.dir, files);
+  } catch (const Error& e) {
+    std::fprintf(stderr, "omni_fit fit: %s\n", e.what());
+    return 2;
+  }
+  model.dataset_path = fs::absolute(ds.dir).string();
+  model.position_unit = ds.position_unit;
+  model.command_unit = ds.command_unit;
+  model.controller = to_controller(ds.runs.front().controller);
+  model.has_inertia_model = fit.has_inertia_model;
+  if (fit.has_inertia_model) {
+    model.linear = fit.inertia.model;
+    for (std::size_t k = 0; k < 6; ++k) model.linear_se[k] = fit.inertia.standard_errors[k];
+  }
+  for (const auto& p : fit.poses) {
+    if (!p.linear.valid) continue;
+    model.poses.push_back({p.gamma1_deg, p.gamma2_deg, p.linear.c_linear, p.linear.beta_tilde_linear});
+  }
+  model.has_alpha_model = fit.alpha.ok;
+  if (fit.alpha.ok) {
+    model.alpha = fit.alpha.model;
+    model.c_n1_se = fit.alpha.c_n1_se;
+    model.beta_n1_se = fit.alpha.beta_n1_se;
+  }
+  model.notes = fit.notes;
+
+  const fs::path out(opt.out_dir);
+  try {
+    fs::create_directories(out);
+    write_model_file(out / "model.json", model);
+    write_atomic(out / "report.md", make_report(ds, fit, model));
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "omni_fit fit: writing %s: %s\n", out.string().c_str(), e.what());
+    return 2;
+  }
+  const double ratio = fit.alpha_step_median > 0.0 ? fit.lin_step_median / fit.alpha_step_median
+                                                   : std::nan("");
+  if (opt.json) {
+    nlohmann::json j;
+    j["runs"] = ds.runs.size();
+    j["poses"] = fit.poses.size();
+    j["linear"] = {{"step_median_abs_err", num(fit.lin_step_median)},
+                   {"step_p90_abs_err", num(fit.lin_step_p90)},
+                   {"phase_p90_deg", num(fit.lin_phase_p90_deg)},
+                   {"magnitude_p90", num(fit.lin_magnitude_p90)}};
+    j["alpha"] = {{"step_median_abs_err", num(fit.alpha_step_median)},
+                  {"step_p90_abs_err", num(fit.alpha_step_p90)},
+                  {"phase_p90_deg", num(fit.alpha_phase_p90_deg)},
+                  {"magnitude_p90", num(fit.alpha_magnitude_p90)}};
+    j["step_error_ratio"] = num(ratio);
+    j["model"] = (out / "model.json").string();
+    std::printf("%s\n", j.dump().c_str());
+  } else if (!opt.quiet) {
+    std::printf("omni_fit fit: %zu runs, %zu poses; model %s, report %s\n", ds.runs.size(),
+                fit.poses.size(), (out / "model.json").c_str(), (out / "report.md").c_str());
+    std::printf("  linear:  step median %s, phase p90 %s deg\n", fmt(fit.lin_step_median).c_str(),
+                fmt(fit.lin_phase_p90_deg).c_str());
+    std::printf("  alpha:   step median %s, phase p90 %s deg; step error ratio %s\n",
+                fmt(fit.alpha_step_median).c_str(), fmt(fit.alpha_phase_p90_deg).c_str(),
+                fmt(ratio).c_str());
+    for (const auto& n : fit.notes) std::printf("  note: %s\n", n.c_str());
+  }
+  bool any_model = fit.alpha.ok;
+  for (const auto& p : fit.poses) any_model = any_model || p.linear.valid;
+  if (!any_model && !opt.quiet) {
+    std::fprintf(stderr, "omni_fit fit: no model could be identified from %s (see report.md)\n",
+                 opt.dataset_dir.c_str());
+  }
+  return any_model ? 0 : 3;
+}
+
+}  // namespace omni_fit

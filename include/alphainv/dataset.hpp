@@ -1,0 +1,148 @@
+#pragma once
+/// \file dataset.hpp
+/// Reader and atomic writer of the dataset interchange format `alphainv-dataset/1`
+/// (docs/dataset-format.md): a folder holding `dataset.json` and the run CSV files it names.
+///
+/// Every function here is set-up / I/O code: it allocates, and throws `alphainv::Error` naming the
+/// file, the line (when there is one), the column or key, and what was expected versus found.
+/// None of it is real-time safe.
+
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace alphainv {
+
+/// The value of the `format` key this library reads and writes.
+inline constexpr std::string_view kDatasetFormat = "alphainv-dataset/1";
+
+/// The PID law that made the command `v` from `r` and `theta` (the paper's eq. (10)):
+/// e = r - theta, v = kp e + ki ∫e dt + kd de/dt (or -kd dtheta/dt), clipped to ±v_limit.
+struct ControllerConfig {
+  /// What the derivative term differentiates.
+  enum class DerivativeOn {
+    Error,        ///< d(r - theta)/dt  (JSON "error", the default)
+    Measurement,  ///< -dtheta/dt       (JSON "measurement")
+  };
+
+  double kp = 0.0;  ///< proportional gain [command unit / position unit]
+  double ki = 0.0;  ///< integral gain [command unit / (position unit · s)]
+  double kd = 0.0;  ///< derivative gain [command unit · s / position unit]
+  DerivativeOn derivative_on = DerivativeOn::Error;  ///< see DerivativeOn
+  std::optional<double>
+      v_limit;  ///< command saturation ±v_limit [command unit], > 0; none: no limit
+
+  friend bool operator==(const ControllerConfig& a, const ControllerConfig& b) {
+    return a.kp == b.kp && a.ki == b.ki && a.kd == b.kd && a.derivative_on == b.derivative_on &&
+           a.v_limit == b.v_limit;
+  }
+  friend bool operator!=(const ControllerConfig& a, const ControllerConfig& b) { return !(a == b); }
+};
+
+/// One entry of the `runs` list of dataset.json.
+struct RunInfo {
+  std::string file;  ///< CSV path relative to the dataset folder, e.g. "runs/sine_1hz.csv"
+  std::string kind;  ///< "sine", "square", "step", "chirp" or "other"
+  std::optional<double> freq_hz;  ///< reference frequency [Hz]; required for sine and square
+  std::optional<double>
+      amplitude_rad;  ///< reference amplitude [position unit]; required for sine, square
+  std::optional<double> gamma1_deg;  ///< measured pose of the other joint 1 [deg]
+  std::optional<double> gamma2_deg;  ///< measured pose of the other joint 2 [deg]
+  /// The law in force for this run: the dataset's controller (with its `kp` shorthand), then
+  /// this run's `controller` object and `kp` shorthand applied on top.
+  ControllerConfig controller;
+  /// The whole run object as read, as JSON text, so keys this library does not know are kept.
+  /// On writing, the fields above replace the keys they stand for. Empty: no extra keys.
+  std::string extra_json;
+};
+
+/// The columns of one run CSV. All vectors have the same length, size().
+struct RunData {
+  std::vector<double> t;      ///< time [s], finite and strictly increasing
+  std::vector<double> r;      ///< reference [position unit]
+  std::vector<double> theta;  ///< measured position [position unit]
+  std::vector<double> v;      ///< command sent by the controller [command unit]
+  /// Every other numeric column by header name, e.g. "gamma1", "gamma2" [rad], "disturbance_v"
+  /// [command unit], "torque_enable" [0/1].
+  std::map<std::string, std::vector<double>> extra_columns;
+  /// Unknown columns that were not read because a cell was not a finite number (the format says
+  /// unknown columns are ignored). Never written.
+  std::vector<std::string> ignored_columns;
+
+  /// Number of samples (rows).
+  std::size_t size() const noexcept { return t.size(); }
+  /// The column called `name` (t, r, theta, v or an extra column), or nullptr.
+  const std::vector<double>* column(std::string_view name) const;
+};
+
+/// The contents of dataset.json.
+struct Dataset {
+  std::filesystem::path dir;  ///< the dataset folder (set by the reader; ignored by the writer)
+  std::string joint;          ///< free text: "yaw", "prismatic", "pendulum", ...; empty: absent
+  std::string position_unit = "rad";     ///< "rad" or "m"
+  std::string command_unit = "V";        ///< "V", "pwm", ...
+  std::optional<double> sample_rate_hz;  ///< nominal sample rate [Hz]; the `t` column is the truth
+  ControllerConfig controller;           ///< the dataset-wide controller (runs may override it)
+  std::vector<RunInfo> runs;             ///< at least one
+  /// The dataset.json object as read, without `runs`, as JSON text, so unknown keys (`source`, ...)
+  /// are kept. On writing, the fields above replace the keys they stand for. Empty: none.
+  std::string extra_json;
+};
+
+/// Size limits, checked before anything large is allocated.
+struct ReadLimits {
+  std::uint64_t max_csv_bytes = std::uint64_t{2} << 30;     ///< largest run CSV [bytes] (2 GiB)
+  std::uint64_t max_index_bytes = std::uint64_t{64} << 20;  ///< largest dataset.json [bytes]
+  std::size_t max_rows = 50'000'000;                        ///< most data rows in one CSV
+  std::size_t max_columns = 1024;                           ///< most columns in one CSV
+};
+
+// --- reading -------------------------------------------------------------------------------------
+
+/// Reads `dir`/dataset.json (not the runs) and checks that every run file exists.
+Dataset read_dataset_index(const std::filesystem::path& dir, const ReadLimits& limits = {});
+
+/// Parses dataset.json text. Checks keys and types but not the file system (run files need not
+/// exist). `dir` is stored in the result and used to name `dir`/dataset.json in errors.
+Dataset parse_dataset_index(std::string_view json, const std::filesystem::path& dir);
+
+/// Reads run `i` of `dataset` (the file `dataset.dir / dataset.runs[i].file`).
+RunData read_run(const Dataset& dataset, std::size_t i, const ReadLimits& limits = {});
+
+/// Reads one run CSV file.
+RunData read_run_csv(const std::filesystem::path& csv, const ReadLimits& limits = {});
+
+/// Parses run CSV text; `name_for_errors` is the file name errors give.
+RunData parse_run_csv(std::string_view text, const std::string& name_for_errors,
+                      const ReadLimits& limits = {});
+
+// --- writing -------------------------------------------------------------------------------------
+
+/// Run CSV text for `data` (header t,r,theta,v then the extra columns by name; numbers in the
+/// shortest form that reads back bit-identical). Throws if `data` would not read back (ragged
+/// columns, non-finite values, `t` not strictly increasing, bad column names).
+/// `name_for_errors` is the file name errors give.
+std::string format_run_csv(const RunData& data, const std::string& name_for_errors = "run");
+
+/// dataset.json text for `dataset` (its `dir` is ignored). Throws if the result would not read
+/// back with parse_dataset_index, naming the offending key.
+std::string format_dataset_index(const Dataset& dataset);
+
+/// Writes one run CSV atomically: to a temporary file in the same folder, flushed to disk, then
+/// renamed over `csv`. Readers see the old file or the new one, never a part.
+void write_run_csv(const std::filesystem::path& csv, const RunData& data);
+
+/// Writes a whole dataset into `dir` (created if missing): every run to `dir`/runs[i].file, then
+/// dataset.json last, each atomically, so the folder never holds a dataset.json whose runs are not
+/// all complete. An existing dataset.json is removed first, so a failed rewrite leaves no index
+/// rather than one pointing at a mix of old and new runs. Everything is validated before the
+/// first byte is written. `data[i]` is the data of `dataset.runs[i]`.
+void write_dataset(const std::filesystem::path& dir, const Dataset& dataset,
+                   const std::vector<RunData>& data);
+
+}  // namespace alphainv

@@ -1,0 +1,92 @@
+#pragma once
+/// \file fit_pipeline.hpp
+/// The paper's whole identification on a dataset (sections 2.2 to 2.3.5) and its validation by
+/// simulation (section 2.4): local linear points per sine run, the global linear model per pose,
+/// the inertia model across poses, the α-invariant model, and Table 8 / Table 11 style errors of the
+/// linear and the α-model. Offline; never throws on what the data cannot support: it says so in
+/// `notes` and leaves the affected parts empty. Throws alphainv::Error only for unreadable input.
+
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "alphainv/alpha_fit.hpp"
+#include "alphainv/controller.hpp"
+#include "alphainv/dataset.hpp"
+#include "alphainv/identify.hpp"
+#include "alphainv/inertia_fit.hpp"
+#include "alphainv/metrics.hpp"
+#include "alphainv/simulate.hpp"
+
+namespace alphainv {
+
+/// The PID law of a run as the simulator takes it.
+Controller to_controller(const ControllerConfig& config);
+
+/// Settings of fit_dataset().
+struct FitPipelineOptions {
+  double settle_fraction = 0.5;   ///< sine runs: the first fraction of the run is transient
+  std::size_t n_breakpoints = 4;  ///< N of the α-model
+  unsigned threads = 0;           ///< validation simulations in parallel; 0: all cores
+  bool validate = true;           ///< simulate every run with both models
+};
+
+/// One sine run's local identification.
+struct SineRunPoint {
+  std::size_t run = 0;           ///< index into dataset.runs
+  std::size_t pose = 0;          ///< index into DatasetFit::poses
+  LocalLinearPoint point;        ///< C_data, β_data, α_data; `physical`
+  double gain = 0.0;             ///< measured A0/Ar
+  double phase_deg = 0.0;        ///< measured phase of θ relative to r [deg]
+};
+
+/// One pose (set of runs with the same γ1, γ2).
+struct PoseFit {
+  std::optional<double> gamma1_deg, gamma2_deg;  ///< measured pose, if the runs give it
+  std::vector<std::size_t> runs;                 ///< indices into dataset.runs
+  GlobalLinearFit linear;                        ///< eq. (22) on `band_hz`
+  double band_lo_hz = 0.0, band_hi_hz = 0.0;     ///< frequency band used for (22)
+  double inertia = 1.0;                          ///< I from the inertia model, or 1 without one
+  // Validation (NaN when the pose has no run of the kind):
+  double lin_magnitude_p90 = 0.0, lin_phase_p90_deg = 0.0;
+  double alpha_magnitude_p90 = 0.0, alpha_phase_p90_deg = 0.0;
+  double lin_step_median = 0.0, lin_step_p90 = 0.0;
+  double alpha_step_median = 0.0, alpha_step_p90 = 0.0;
+};
+
+/// Validation of one run.
+struct RunValidation {
+  std::size_t run = 0;
+  bool simulated = false;
+  std::string message;
+  FundamentalError lin_fundamental, alpha_fundamental;  ///< sine runs
+  AbsErrorStats lin_abs, alpha_abs;                     ///< all runs: |θ_sim − θ| over the run
+  double lin_rel_position_error = 0.0;   ///< ‖θ_sim − θ‖/‖θ‖ over the run [1]
+  double alpha_rel_position_error = 0.0;
+};
+
+/// Everything fit_dataset() finds.
+struct DatasetFit {
+  std::vector<SineRunPoint> sine_points;
+  std::vector<PoseFit> poses;
+  bool has_inertia_model = false;
+  InertiaFitSummary inertia;   ///< valid when has_inertia_model
+  double kp = 0.0;             ///< the P gain used to turn β into β̃ (runs must agree)
+  AlphaFitResult alpha;        ///< alpha.ok when the α-model was fitted
+  std::vector<RunValidation> validation;
+  std::vector<std::string> notes;  ///< what could not be done, and why; choices made
+  // Medians over poses of the Table 8 / 11 figures (NaN when absent):
+  double lin_step_median = 0.0, lin_step_p90 = 0.0, alpha_step_median = 0.0, alpha_step_p90 = 0.0;
+  double lin_phase_p90_deg = 0.0, lin_magnitude_p90 = 0.0;
+  double alpha_phase_p90_deg = 0.0, alpha_magnitude_p90 = 0.0;
+  /// The model at a run's pose, for simulation (linear and α parts).
+  JointModelAtPose model_for_pose(std::size_t pose) const;
+};
+
+/// Runs the identification and validation on `dataset` with its run data (`data[i]` of
+/// `dataset.runs[i]`).
+DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
+                       const FitPipelineOptions& options = {});
+
+}  // namespace alphainv

@@ -1,0 +1,364 @@
+#include "alphainv/fit_pipeline.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <thread>
+
+#include "alphainv/metrics.hpp"
+#include "alphainv/reference.hpp"
+
+namespace alphainv {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+double wrap_rad(double a) { return std::remainder(a, 2.0 * kPi); }
+
+/// Median over the finite values; NaN when there are none.
+double finite_median(const std::vector<double>& v) {
+  std::vector<double> f;
+  for (double x : v) {
+    if (std::isfinite(x)) f.push_back(x);
+  }
+  return f.empty() ? kNaN : median(std::move(f));
+}
+
+double finite_p90(const std::vector<double>& v) {
+  std::vector<double> f;
+  for (double x : v) {
+    if (std::isfinite(x)) f.push_back(x);
+  }
+  return f.empty() ? kNaN : percentile(std::move(f), 90.0);
+}
+
+bool is_periodic_kind(const RunInfo& run) {
+  return (run.kind == "sine") && run.freq_hz && *run.freq_hz > 0.0;
+}
+
+bool is_step_kind(const RunInfo& run) { return run.kind == "square" || run.kind == "step"; }
+
+}  // namespace
+
+Controller to_controller(const ControllerConfig& config) {
+  Controller c;
+  c.kp = config.kp;
+  c.ki = config.ki;
+  c.kd = config.kd;
+  c.derivative_on = config.derivative_on == ControllerConfig::DerivativeOn::Measurement
+                        ? DerivativeOn::kMeasurement
+                        : DerivativeOn::kError;
+  if (config.v_limit) c.v_limit = *config.v_limit;
+  return c;
+}
+
+JointModelAtPose DatasetFit::model_for_pose(std::size_t pose) const {
+  JointModelAtPose m;
+  const PoseFit& p = poses[pose];
+  m.inertia = p.inertia;
+  if (has_inertia_model) {
+    m.c_linear = inertia.model.damping(p.inertia);
+    m.beta_tilde_linear = inertia.model.beta_tilde(p.inertia);
+  } else {
+    m.c_linear = p.linear.c_linear;
+    m.beta_tilde_linear = p.linear.beta_tilde_linear;
+  }
+  m.alpha = alpha.model;
+  m.use_alpha = alpha.ok;
+  return m;
+}
+
+DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
+                       const FitPipelineOptions& options) {
+  DatasetFit fit;
+  const std::size_t n_runs = dataset.runs.size();
+
+  // --- poses: runs grouped by their measured (γ1, γ2), rounded to 0.01° -----------------------
+  std::map<std::pair<long, long>, std::size_t> pose_index;
+  std::vector<std::size_t> run_pose(n_runs);
+  for (std::size_t i = 0; i < n_runs; ++i) {
+    const RunInfo& run = dataset.runs[i];
+    const bool has_pose = run.gamma1_deg && run.gamma2_deg;
+    const std::pair<long, long> key =
+        has_pose ? std::make_pair(std::lround(*run.gamma1_deg * 100), std::lround(*run.gamma2_deg * 100))
+                 : std::make_pair(std::numeric_limits<long>::min(), 0L);
+    auto it = pose_index.find(key);
+    if (it == pose_index.end()) {
+      it = pose_index.emplace(key, fit.poses.size()).first;
+      PoseFit p;
+      if (has_pose) {
+        p.gamma1_deg = run.gamma1_deg;
+        p.gamma2_deg = run.gamma2_deg;
+      }
+      fit.poses.push_back(p);
+    }
+    run_pose[i] = it->second;
+    fit.poses[it->second].runs.push_back(i);
+  }
+
+  // --- local linear points (14)-(20), (36) per sine run ------------------------------------------
+  std::vector<std::vector<LocalLinearPoint>> pose_points(fit.poses.size());
+  std::size_t skipped_controller = 0;
+  for (std::size_t i = 0; i < n_runs; ++i) {
+    const RunInfo& run = dataset.runs[i];
+    if (!is_periodic_kind(run)) continue;
+    const Controller ctl = to_controller(run.controller);
+    if (!(ctl.kp > 0.0) || ctl.ki != 0.0 || ctl.kd != 0.0) {
+      ++skipped_controller;
+      continue;
+    }
+    if (fit.kp == 0.0) fit.kp = ctl.kp;
+    const RunData& d = data[i];
+    const double f = *run.freq_hz, w = 2.0 * kPi * f;
+    const double duration = d.t.back() - d.t.front();
+    const IndexRange win = steady_state_window(d.t, f, options.settle_fraction * duration);
+    if (win.size() < 8) {
+      fit.notes.push_back("run " + run.file + ": shorter than one period after the transient; skipped");
+      continue;
+    }
+    const SineFit fr = fit_sine(d.t.data() + win.begin, d.r.data() + win.begin, win.size(), w);
+    const SineFit ft = fit_sine(d.t.data() + win.begin, d.theta.data() + win.begin, win.size(), w);
+    if (!fr.valid || !ft.valid || !(fr.amplitude() > 0.0)) continue;
+    // Express θ in the frame where r = Ar sin ωt (eq. (14)).
+    const double phi = wrap_rad(ft.phase_rad() - fr.phase_rad());
+    const double a0 = ft.amplitude(), ar = fr.amplitude();
+    SineRunPoint sp;
+    sp.run = i;
+    sp.pose = run_pose[i];
+    sp.point = local_linear_point(f, a0 * std::sin(phi), a0 * std::cos(phi), ar, ctl.kp);
+    sp.gain = a0 / ar;
+    sp.phase_deg = rad_to_deg(phi);
+    fit.sine_points.push_back(sp);
+    pose_points[sp.pose].push_back(sp.point);
+  }
+  if (skipped_controller > 0) {
+    fit.notes.push_back(std::to_string(skipped_controller) +
+                        " sine run(s) were not under a pure P law (kp > 0, ki = kd = 0), which the "
+                        "local linear model (19)-(20) assumes; they were left out of identification");
+  }
+  std::size_t n_nonphysical = 0;
+  for (const auto& sp : fit.sine_points) n_nonphysical += sp.point.physical ? 0 : 1;
+  if (n_nonphysical > 0) {
+    fit.notes.push_back(std::to_string(n_nonphysical) +
+                        " sine point(s) are non-physical (A1² + A2(A2 − Ar) ≤ 0: negative C_data, "
+                        "β_data) and were excluded, as the paper does");
+  }
+  if (fit.sine_points.empty()) {
+    fit.notes.push_back("no sine runs with freq_hz under a P law: no local or global linear model, "
+                        "no α-invariant model can be identified from this dataset");
+  }
+
+  // --- global linear model (22) per pose, on a band around the resonance ------------------------
+  for (std::size_t p = 0; p < fit.poses.size(); ++p) {
+    const auto& pts = pose_points[p];
+    if (pts.empty()) continue;
+    double f_res = pts.front().freq_hz, best_gain = -1.0;
+    for (const auto& sp : fit.sine_points) {
+      if (sp.pose == p && sp.gain > best_gain) {
+        best_gain = sp.gain;
+        f_res = sp.point.freq_hz;
+      }
+    }
+    // The paper fits (22) on 3-4.5 Hz around the 3.4 Hz resonance (paper-notes): the band is
+    // [f_res/1.3, 1.3 f_res] around the frequency of largest measured gain.
+    PoseFit& pose = fit.poses[p];
+    pose.band_lo_hz = f_res / 1.3;
+    pose.band_hi_hz = f_res * 1.3;
+    std::vector<LocalLinearPoint> band;
+    for (const auto& q : pts) {
+      if (q.physical && q.freq_hz >= pose.band_lo_hz - 1e-9 && q.freq_hz <= pose.band_hi_hz + 1e-9) {
+        band.push_back(q);
+      }
+    }
+    if (band.size() < 2) {
+      band.clear();
+      for (const auto& q : pts) {
+        if (q.physical) band.push_back(q);
+      }
+      pose.band_lo_hz = band.empty() ? 0.0 : band.front().freq_hz;
+      pose.band_hi_hz = band.empty() ? 0.0 : band.back().freq_hz;
+    }
+    pose.linear = global_linear_fit(band, fit.kp);
+    if (pose.linear.valid && (pose.linear.c_linear <= 0.0 || pose.linear.beta_linear <= 0.0)) {
+      pose.linear.valid = false;
+    }
+  }
+
+  // --- inertia model (27)-(29) across poses -------------------------------------------------------
+  std::vector<InertiaPose> ipose;
+  for (const PoseFit& pose : fit.poses) {
+    if (pose.gamma1_deg && pose.linear.valid) {
+      InertiaPose ip;
+      ip.gamma1_rad = deg_to_rad(*pose.gamma1_deg);
+      ip.gamma2_rad = deg_to_rad(*pose.gamma2_deg);
+      ip.c_linear = pose.linear.c_linear;
+      ip.beta_tilde_linear = pose.linear.beta_tilde_linear;
+      ipose.push_back(ip);
+    }
+  }
+  if (ipose.size() >= 6) {
+    fit.inertia = fit_inertia_model(ipose, InertiaFitOptions{});
+    fit.has_inertia_model = fit.inertia.converged;
+    if (!fit.has_inertia_model) {
+      fit.notes.push_back("inertia model fit did not converge: " + fit.inertia.message +
+                          "; the per-pose linear models are used");
+    }
+  } else {
+    fit.notes.push_back("inertia model (6) skipped: it needs global linear fits at 6 or more poses "
+                        "with gamma1_deg/gamma2_deg, this dataset has " +
+                        std::to_string(ipose.size()) + "; per-pose models (I = 1) are fitted instead");
+  }
+  for (PoseFit& pose : fit.poses) {
+    if (fit.has_inertia_model && pose.gamma1_deg) {
+      pose.inertia = fit.inertia.model.inertia.inertia(deg_to_rad(*pose.gamma1_deg),
+                                                       deg_to_rad(*pose.gamma2_deg));
+    } else {
+      pose.inertia = 1.0;
+    }
+  }
+
+  // --- α-invariant model (section 2.3.5) ----------------------------------------------------------
+  std::vector<AlphaFitPose> apose;
+  for (std::size_t p = 0; p < fit.poses.size(); ++p) {
+    if (pose_points[p].empty()) continue;
+    if (!fit.has_inertia_model && fit.poses.size() > 1 && pose_points[p].size() > 0) {
+      // Without an inertia model, poses cannot be tied together; with several poses we still fit
+      // one model with I = 1 (their average behaviour) and say so below.
+    }
+    apose.push_back(AlphaFitPose{fit.poses[p].inertia, pose_points[p]});
+  }
+  if (!apose.empty()) {
+    AlphaFitOptions aopt;
+    aopt.kp = fit.kp;
+    aopt.n_breakpoints = options.n_breakpoints;
+    fit.alpha = fit_alpha_model(apose, aopt);
+    if (!fit.alpha.ok) fit.notes.push_back("α-invariant model not fitted: " + fit.alpha.message);
+    if (!fit.has_inertia_model && apose.size() > 1) {
+      fit.notes.push_back("without an inertia model the α-model is one model for all poses (I = 1)");
+    }
+  }
+
+  // --- validation: every run simulated with both models under its own controller ----------------
+  if (options.validate) {
+    fit.validation.resize(n_runs);
+    const unsigned hw = std::max(1u, std::thread::hardware_concurrency());
+    const unsigned n_threads = std::max(1u, std::min<unsigned>(options.threads ? options.threads : hw,
+                                                               static_cast<unsigned>(n_runs)));
+    std::atomic<std::size_t> next{0};
+    auto worker = [&]() {
+      for (std::size_t i = next++; i < n_runs; i = next++) {
+        RunValidation& rv = fit.validation[i];
+        rv.run = i;
+        const RunInfo& run = dataset.runs[i];
+        const RunData& d = data[i];
+        JointModelAtPose m = fit.model_for_pose(run_pose[i]);
+        if (!(m.c_linear > 0.0) || !(m.beta_tilde_linear > 0.0)) {
+          rv.message = "no linear model for this run's pose";
+          continue;
+        }
+        const Controller ctl = to_controller(run.controller);
+        const SampledReference ref(d.t, d.r);
+        const InitialState x0{d.theta.front(), 0.0, 0.0};
+        m.use_alpha = false;
+        const SimulationResult lin = simulate(m, ctl, ref, d.t, x0);
+        SimulationResult alp;
+        if (fit.alpha.ok) {
+          m.use_alpha = true;
+          alp = simulate(m, ctl, ref, d.t, x0);
+        }
+        if (!lin.ok) {
+          rv.message = "linear simulation failed: " + lin.message;
+          continue;
+        }
+        rv.simulated = true;
+        auto rel = [&](const std::vector<double>& sim) {
+          double num = 0.0, den = 0.0;
+          for (std::size_t k = 0; k < d.size(); ++k) {
+            num += std::pow(sim[k] - d.theta[k], 2);
+            den += d.theta[k] * d.theta[k];
+          }
+          return den > 0.0 ? std::sqrt(num / den) : kNaN;
+        };
+        rv.lin_abs = abs_error_stats(d.theta, lin.theta, 0, d.size());
+        rv.lin_rel_position_error = rel(lin.theta);
+        if (alp.ok) {
+          rv.alpha_abs = abs_error_stats(d.theta, alp.theta, 0, d.size());
+          rv.alpha_rel_position_error = rel(alp.theta);
+        }
+        if (is_periodic_kind(run)) {
+          const double duration = d.t.back() - d.t.front();
+          const IndexRange win =
+              steady_state_window(d.t, *run.freq_hz, options.settle_fraction * duration);
+          rv.lin_fundamental =
+              fundamental_error(d.t, d.r, d.theta, lin.theta, *run.freq_hz, win.begin, win.end);
+          if (alp.ok) {
+            rv.alpha_fundamental =
+                fundamental_error(d.t, d.r, d.theta, alp.theta, *run.freq_hz, win.begin, win.end);
+          }
+        }
+      }
+    };
+    std::vector<std::thread> pool;
+    for (unsigned k = 1; k < n_threads; ++k) pool.emplace_back(worker);
+    worker();
+    for (auto& th : pool) th.join();
+
+    // Per pose: Table 8 (90th percentile over the sweep) and Table 11 (median, p90 of |error|).
+    std::vector<double> lm, lp, am, ap, lsm, lsp, asm_, asp;
+    for (std::size_t p = 0; p < fit.poses.size(); ++p) {
+      PoseFit& pose = fit.poses[p];
+      std::vector<double> mag_l, ph_l, mag_a, ph_a, step_l, step_a;
+      std::vector<double> step_l90, step_a90;
+      for (std::size_t i : pose.runs) {
+        const RunValidation& rv = fit.validation[i];
+        if (!rv.simulated) continue;
+        if (rv.lin_fundamental.valid) {
+          mag_l.push_back(rv.lin_fundamental.magnitude_abs_error);
+          ph_l.push_back(rv.lin_fundamental.phase_abs_error_deg);
+        }
+        if (rv.alpha_fundamental.valid) {
+          mag_a.push_back(rv.alpha_fundamental.magnitude_abs_error);
+          ph_a.push_back(rv.alpha_fundamental.phase_abs_error_deg);
+        }
+        if (is_step_kind(dataset.runs[i])) {
+          step_l.push_back(rv.lin_abs.median);
+          step_l90.push_back(rv.lin_abs.p90);
+          if (rv.alpha_abs.n > 0) {
+            step_a.push_back(rv.alpha_abs.median);
+            step_a90.push_back(rv.alpha_abs.p90);
+          }
+        }
+      }
+      pose.lin_magnitude_p90 = finite_p90(mag_l);
+      pose.lin_phase_p90_deg = finite_p90(ph_l);
+      pose.alpha_magnitude_p90 = finite_p90(mag_a);
+      pose.alpha_phase_p90_deg = finite_p90(ph_a);
+      pose.lin_step_median = finite_median(step_l);
+      pose.lin_step_p90 = finite_median(step_l90);
+      pose.alpha_step_median = finite_median(step_a);
+      pose.alpha_step_p90 = finite_median(step_a90);
+      lm.push_back(pose.lin_magnitude_p90);
+      lp.push_back(pose.lin_phase_p90_deg);
+      am.push_back(pose.alpha_magnitude_p90);
+      ap.push_back(pose.alpha_phase_p90_deg);
+      lsm.push_back(pose.lin_step_median);
+      lsp.push_back(pose.lin_step_p90);
+      asm_.push_back(pose.alpha_step_median);
+      asp.push_back(pose.alpha_step_p90);
+    }
+    fit.lin_magnitude_p90 = finite_median(lm);
+    fit.lin_phase_p90_deg = finite_median(lp);
+    fit.alpha_magnitude_p90 = finite_median(am);
+    fit.alpha_phase_p90_deg = finite_median(ap);
+    fit.lin_step_median = finite_median(lsm);
+    fit.lin_step_p90 = finite_median(lsp);
+    fit.alpha_step_median = finite_median(asm_);
+    fit.alpha_step_p90 = finite_median(asp);
+  }
+  return fit;
+}
+
+}  // namespace alphainv
