@@ -1,8 +1,7 @@
 #!/usr/bin/env bash
-# The main job: sets up (scripts/setup.sh), then runs omni_fit on the bundled model and experiment
-# plan. Until the bundled dataset and the fit pipeline land, this is the paper's model simulated on
-# the paper's experiment plan (`omni_fit demo`); the command stays the same.
+# The main job: sets up (scripts/setup.sh, which also generates the bundled dataset from the virtual
+# Omni), then fits the bundled dataset with omni_fit: model.json and report.md in out/omni_yaw_sim.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/setup.sh
-./build/release/apps/omni_fit/omni_fit demo "$@"
+./build/release/apps/omni_fit/omni_fit fit data/omni_yaw_sim -o out/omni_yaw_sim "$@"

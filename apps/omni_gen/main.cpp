@@ -1,0 +1,257 @@
+// omni_gen: generates datasets (alphainv-dataset/1) from the virtual Omni.
+//   omni_gen paper -o DIR [--seed N] [--effect NAME=VALUE ...] [--noise-std RAD]
+//                         [--quantisation RAD] [--no-coulomb] [--truth-columns]
+// A thin layer over alphainv::make_experiment_plan / generate_dataset / write_dataset.
+// Every error prints one line on stderr naming the option and exits with code 2.
+#include <CLI/CLI.hpp>
+#include <charconv>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <map>
+#include <string>
+#include <system_error>
+#include <vector>
+
+#include "alphainv/dataset.hpp"
+#include "alphainv/error.hpp"
+#include "alphainv/experiment_plan.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace alphainv;
+
+/// One --effect name: the PlantEffects member it sets and its unit.
+struct EffectName {
+  double PlantEffects::*member;
+  const char* field;  // the validation field, "effects.<member>"
+  const char* help;
+};
+
+const std::map<std::string, EffectName>& effect_names() {
+  static const std::map<std::string, EffectName> names = {
+      {"coulomb", {&PlantEffects::coulomb_v, "effects.coulomb_v", "Coulomb friction Fc [V]"}},
+      {"coulomb_smoothing",
+       {&PlantEffects::coulomb_smoothing_rad_s, "effects.coulomb_smoothing_rad_s",
+        "tanh smoothing velocity eps [rad/s]"}},
+      {"offset", {&PlantEffects::offset_v, "effects.offset_v", "offset torque d0 [V]"}},
+      {"gravity",
+       {&PlantEffects::gravity_v, "effects.gravity_v",
+        "gravity g [V], n = -g sin(theta + theta0)"}},
+      {"gravity_theta0",
+       {&PlantEffects::gravity_theta0_rad, "effects.gravity_theta0_rad",
+        "gravity phase theta0 [rad]"}},
+      {"cogging", {&PlantEffects::cogging_v, "effects.cogging_v", "cogging amplitude a [V]"}},
+      {"cogging_period",
+       {&PlantEffects::cogging_period_rad, "effects.cogging_period_rad", "cogging period p [rad]"}},
+      {"cogging_phase",
+       {&PlantEffects::cogging_phase_rad, "effects.cogging_phase_rad", "cogging phase [rad]"}},
+      {"delay", {&PlantEffects::delay_s, "effects.delay_s", "command delay tau [s]"}},
+      {"saturation",
+       {&PlantEffects::saturation_v, "effects.saturation_v",
+        "amplifier limit v_max [V] (inf: none)"}},
+      {"deadzone", {&PlantEffects::deadzone_v, "effects.deadzone_v", "amplifier deadzone d [V]"}},
+  };
+  return names;
+}
+
+/// Maps a validation field back to the command-line option that sets it.
+std::string option_for_field(const std::string& field) {
+  const std::string prefix = "plant.";
+  const std::string f = field.rfind(prefix, 0) == 0 ? field.substr(prefix.size()) : field;
+  for (const auto& [name, e] : effect_names()) {
+    if (f == e.field) return "--effect " + name;
+  }
+  if (f == "measurement.noise_std_rad") return "--noise-std";
+  if (f == "measurement.quantisation_rad") return "--quantisation";
+  if (f == "seed") return "--seed";
+  return field;
+}
+
+int fail(const std::string& option, const std::string& message) {
+  std::fprintf(stderr, "omni_gen: %s: %s\n", option.c_str(), message.c_str());
+  return 2;
+}
+
+/// The command line, each argument quoted for a POSIX shell where needed.
+std::string command_line(int argc, char** argv) {
+  std::string out = "omni_gen";
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    const bool plain = !a.empty() && a.find_first_not_of(
+                                         "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                                         "0123456789-_=.,/:+") == std::string::npos;
+    out += ' ';
+    if (plain) {
+      out += a;
+    } else {
+      out += '\'';
+      for (char c : a) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+      out += '\'';
+    }
+  }
+  return out;
+}
+
+struct PaperArgs {
+  std::string out_dir;
+  std::string seed = "1";
+  std::vector<std::string> effects;
+  double noise_std_rad = std::nan("");  // NaN: keep the bundled value
+  double quantisation_rad = std::nan("");
+  bool no_coulomb = false;
+  bool truth_columns = false;
+};
+
+int run_paper(const PaperArgs& args, const std::string& cmd) {
+  std::uint64_t seed = 0;
+  const char* first = args.seed.data();
+  const char* last = first + args.seed.size();
+  const auto parsed = std::from_chars(first, last, seed);
+  if (args.seed.empty() || parsed.ec != std::errc() || parsed.ptr != last) {
+    return fail("--seed", "expected an integer in 0.." + std::to_string(UINT64_MAX) + ", got '" +
+                              args.seed + "'");
+  }
+  ExperimentPlanOptions options = paper_plan_options(seed);
+  options.generator_command = cmd;
+  options.record_truth_columns = args.truth_columns;
+  PlantEffects& effects = options.plant.effects;
+  if (args.no_coulomb) effects.coulomb_v = 0.0;
+  if (!std::isnan(args.noise_std_rad)) options.plant.measurement.noise_std_rad = args.noise_std_rad;
+  if (!std::isnan(args.quantisation_rad)) {
+    options.plant.measurement.quantisation_rad = args.quantisation_rad;
+  }
+  for (const std::string& spec : args.effects) {
+    const std::string option = "--effect " + spec;
+    const auto eq = spec.find('=');
+    if (eq == std::string::npos || eq == 0) return fail(option, "expected NAME=VALUE");
+    const std::string name = spec.substr(0, eq), value = spec.substr(eq + 1);
+    const auto it = effect_names().find(name);
+    if (it == effect_names().end()) {
+      std::string known;
+      for (const auto& [n, e] : effect_names()) known += (known.empty() ? "" : ", ") + n;
+      return fail(option, "unknown effect '" + name + "' (known: " + known + ")");
+    }
+    if (name == "coulomb" && args.no_coulomb) {
+      return fail(option, "contradicts --no-coulomb");
+    }
+    char* end = nullptr;
+    const double x = std::strtod(value.c_str(), &end);
+    if (value.empty() || end != value.c_str() + value.size() || std::isnan(x)) {
+      return fail(option, "expected a number, got '" + value + "'");
+    }
+    effects.*(it->second.member) = x;
+  }
+
+  ExperimentPlan plan;
+  try {
+    plan = make_experiment_plan(options);
+  } catch (const Error& e) {
+    return fail(option_for_field(e.field()), e.message());
+  }
+
+  const auto t0 = std::chrono::steady_clock::now();
+  const GeneratedDataset data = generate_dataset(plan);
+  const auto t1 = std::chrono::steady_clock::now();
+  try {
+    write_dataset(args.out_dir, data.index, data.runs);
+  } catch (const Error& e) {
+    return fail("-o " + args.out_dir, e.what());
+  } catch (const std::exception& e) {
+    return fail("-o " + args.out_dir, e.what());
+  }
+  const auto t2 = std::chrono::steady_clock::now();
+
+  std::uintmax_t bytes = 0;
+  std::size_t rows = 0;
+  std::error_code ec;
+  bytes += fs::file_size(fs::path(args.out_dir) / "dataset.json", ec);
+  for (std::size_t i = 0; i < plan.runs.size(); ++i) {
+    bytes += fs::file_size(fs::path(args.out_dir) / plan.runs[i].file, ec);
+    rows += data.runs[i].size();
+  }
+  std::size_t sines = 0;
+  for (const PlannedRun& r : plan.runs) sines += r.kind == "sine";
+  std::printf(
+      "omni_gen: wrote %s: %zu runs (%zu sine, %zu square), %zu rows, %.1f MB "
+      "(%ju bytes); simulated in %.2f s, written in %.2f s\n",
+      args.out_dir.c_str(), plan.runs.size(), sines, plan.runs.size() - sines, rows,
+      static_cast<double>(bytes) / 1e6, bytes, std::chrono::duration<double>(t1 - t0).count(),
+      std::chrono::duration<double>(t2 - t1).count());
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "omni_gen: generate alphainv-dataset/1 datasets from the virtual Phantom Omni yaw joint"};
+  app.require_subcommand(1);
+  app.footer(
+      "Example:\n"
+      "  omni_gen paper -o data/omni_yaw_sim --seed 1\n"
+      "  omni_gen paper -o /tmp/gravity --seed 5 --no-coulomb --effect gravity=0.02 --noise-std 0");
+
+  PaperArgs args;
+  auto* paper = app.add_subcommand(
+      "paper",
+      "the paper's experiment plan: Table 1 (sine 1.5-7 Hz +-0.07 rad at 9 poses) and Table 2 "
+      "(0.25 Hz +-0.07 rad square wave at 25 poses), kp = 2 P law at 1 kHz, with the bundled "
+      "effects (Coulomb friction 0.004 V, encoder quantisation 1.5e-4 rad, noise 5e-5 rad)");
+  paper
+      ->add_option("-o,--out", args.out_dir,
+                   "output dataset folder (created; its dataset.json is replaced)")
+      ->required();
+  paper
+      ->add_option("--seed", args.seed,
+                   "seed of the true poses and the measurement noise, 0..2^64-1")
+      ->type_name("N")
+      ->capture_default_str();
+  std::string effect_help = "set a plant effect, NAME=VALUE, repeatable; 0 = off. Names:";
+  for (const auto& [name, e] : effect_names())
+    effect_help += std::string("\n  ") + name + ": " + e.help;
+  paper->add_option("--effect", args.effects, effect_help)->take_all()->allow_extra_args(false);
+  const CLI::Validator non_negative(
+      [](std::string& text) -> std::string {
+        char* end = nullptr;
+        const double x = std::strtod(text.c_str(), &end);
+        if (text.empty() || end != text.c_str() + text.size() || !std::isfinite(x) || x < 0.0) {
+          return "expected a finite number >= 0, got '" + text + "'";
+        }
+        return {};
+      },
+      "RAD>=0");
+  paper
+      ->add_option("--noise-std", args.noise_std_rad, "measurement noise std [rad] (bundled: 5e-5)")
+      ->check(non_negative);
+  paper
+      ->add_option("--quantisation", args.quantisation_rad,
+                   "encoder quantisation step [rad], 0 = none (bundled: 1.5e-4)")
+      ->check(non_negative);
+  paper->add_flag("--no-coulomb", args.no_coulomb, "turn the bundled Coulomb friction off");
+  paper->add_flag("--truth-columns", args.truth_columns,
+                  "add the columns theta_true, theta_dot_true, v_eff, alpha_true, c_true, "
+                  "beta_tilde_true to every run");
+  paper->footer(
+      "Example:\n  omni_gen paper -o data/omni_yaw_sim --seed 1\n"
+      "  omni_gen paper -o /tmp/delay --seed 2 --effect delay=0.002 --effect deadzone=0.005");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::fprintf(stderr,
+                 "omni_gen: %s\nRun 'omni_gen --help' or 'omni_gen paper --help' for usage.\n",
+                 e.what());
+    return 2;
+  }
+  if (paper->parsed()) return run_paper(args, command_line(argc, argv));
+  return 2;
+}
