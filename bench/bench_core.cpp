@@ -37,14 +37,8 @@ void BM_Tick(benchmark::State& state) {
 BENCHMARK(BM_Tick);
 
 JointModelAtPose PaperPose(bool use_alpha) {
-  const LinearModel lin = paper_linear_model();
-  JointModelAtPose m;
-  m.use_alpha = use_alpha;
-  m.inertia = lin.inertia.inertia(deg_to_rad(60.08), deg_to_rad(87.00));
-  m.c_linear = lin.damping(m.inertia);
-  m.beta_tilde_linear = lin.beta_tilde(m.inertia);
-  m.alpha = paper_alpha_model();
-  return m;
+  return model_at_pose(paper_linear_model(), paper_alpha_model(), deg_to_rad(60.08),
+                       deg_to_rad(87.00), use_alpha);
 }
 
 // A 4 s square-wave response (0.25 Hz, ±0.07 rad, kp = 2) at 1 kHz, the paper's step experiment.

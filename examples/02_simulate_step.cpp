@@ -8,13 +8,11 @@
 #include <alphainv/simulate.hpp>
 
 int main() {
-  const alphainv::LinearModel linear = alphainv::paper_linear_model();
-  const double i = linear.inertia.inertia(alphainv::deg_to_rad(60.08), alphainv::deg_to_rad(87.00));
-  alphainv::JointModelAtPose model;
-  model.inertia = i;
-  model.c_linear = linear.damping(i);
-  model.beta_tilde_linear = linear.beta_tilde(i);
-  model.alpha = alphainv::paper_alpha_model();
+  // The paper's model at the 65°/90° pose (true angles 60.08°, 87.00°).
+  alphainv::JointModelAtPose model =
+      alphainv::model_at_pose(alphainv::paper_linear_model(), alphainv::paper_alpha_model(),
+                              alphainv::deg_to_rad(60.08), alphainv::deg_to_rad(87.00));
+  const double i = model.inertia;
 
   alphainv::Controller controller;  // kp = 2, P law
   const alphainv::SquareReference reference(0.07, 0.25);

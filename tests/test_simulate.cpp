@@ -13,14 +13,8 @@ namespace {
 
 /// The paper's 65°/90° pose (true angles 60.08°, 87.00°): I = 0.004366, C_linear = 6.242.
 JointModelAtPose paper_pose_model(bool use_alpha) {
-  const LinearModel lin = paper_linear_model();
-  JointModelAtPose m;
-  m.use_alpha = use_alpha;
-  m.inertia = lin.inertia.inertia(deg_to_rad(60.08), deg_to_rad(87.00));
-  m.c_linear = lin.damping(m.inertia);
-  m.beta_tilde_linear = lin.beta_tilde(m.inertia);
-  m.alpha = paper_alpha_model();
-  return m;
+  return model_at_pose(paper_linear_model(), paper_alpha_model(), deg_to_rad(60.08),
+                       deg_to_rad(87.00), use_alpha);
 }
 
 double max_abs_diff(const std::vector<double>& a, const std::vector<double>& b) {

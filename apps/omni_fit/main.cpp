@@ -19,12 +19,8 @@ namespace {
 using namespace alphainv;
 
 int run_demo(double gamma1_deg, double gamma2_deg, double amplitude_rad, double kp, bool cvode) {
-  const LinearModel lin = paper_linear_model();
-  JointModelAtPose model;
-  model.inertia = lin.inertia.inertia(deg_to_rad(gamma1_deg), deg_to_rad(gamma2_deg));
-  model.c_linear = lin.damping(model.inertia);
-  model.beta_tilde_linear = lin.beta_tilde(model.inertia);
-  model.alpha = paper_alpha_model();
+  JointModelAtPose model = model_at_pose(paper_linear_model(), paper_alpha_model(),
+                                         deg_to_rad(gamma1_deg), deg_to_rad(gamma2_deg));
   Controller ctl;
   ctl.kp = kp;
   SimulationOptions opt;

@@ -10,6 +10,7 @@
 
 #include "alphainv/controller.hpp"
 #include "alphainv/damping_model.hpp"
+#include "alphainv/inertia_model.hpp"
 #include "alphainv/reference.hpp"
 
 namespace alphainv {
@@ -22,6 +23,20 @@ struct JointModelAtPose {
   double beta_tilde_linear = 0.0; ///< β̃_linear(I) [rad/s² per command unit]
   AlphaModel alpha;               ///< used when use_alpha
 };
+
+/// The model at pose (γ1, γ2): I from the inertia model (6), C_linear and β̃_linear from (24)-(25),
+/// and the α-model. Real-time safe.
+inline JointModelAtPose model_at_pose(const LinearModel& linear, const AlphaModel& alpha,
+                                      double gamma1_rad, double gamma2_rad,
+                                      bool use_alpha = true) noexcept {
+  JointModelAtPose m;
+  m.use_alpha = use_alpha;
+  m.inertia = linear.inertia.inertia(gamma1_rad, gamma2_rad);
+  m.c_linear = linear.damping(m.inertia);
+  m.beta_tilde_linear = linear.beta_tilde(m.inertia);
+  m.alpha = alpha;
+  return m;
+}
 
 /// Which integrator.
 enum class Integrator { kFixedPointRk4, kCvode };
