@@ -18,22 +18,16 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 double wrap_rad(double a) { return std::remainder(a, 2.0 * kPi); }
 
-/// Median over the finite values; NaN when there are none.
-double finite_median(const std::vector<double>& v) {
+/// p-th percentile over the finite values; NaN when there are none.
+double finite_percentile(const std::vector<double>& v, double p) {
   std::vector<double> f;
   for (double x : v) {
     if (std::isfinite(x)) f.push_back(x);
   }
-  return f.empty() ? kNaN : median(std::move(f));
+  return f.empty() ? kNaN : percentile(std::move(f), p);
 }
-
-double finite_p90(const std::vector<double>& v) {
-  std::vector<double> f;
-  for (double x : v) {
-    if (std::isfinite(x)) f.push_back(x);
-  }
-  return f.empty() ? kNaN : percentile(std::move(f), 90.0);
-}
+double finite_median(const std::vector<double>& v) { return finite_percentile(v, 50.0); }
+double finite_p90(const std::vector<double>& v) { return finite_percentile(v, 90.0); }
 
 bool is_periodic_kind(const RunInfo& run) {
   return (run.kind == "sine") && run.freq_hz && *run.freq_hz > 0.0;
@@ -224,10 +218,6 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
   std::vector<AlphaFitPose> apose;
   for (std::size_t p = 0; p < fit.poses.size(); ++p) {
     if (pose_points[p].empty()) continue;
-    if (!fit.has_inertia_model && fit.poses.size() > 1 && pose_points[p].size() > 0) {
-      // Without an inertia model, poses cannot be tied together; with several poses we still fit
-      // one model with I = 1 (their average behaviour) and say so below.
-    }
     apose.push_back(AlphaFitPose{fit.poses[p].inertia, pose_points[p]});
   }
   if (!apose.empty()) {
