@@ -11,6 +11,11 @@ inline std::atomic<long> g_allocations{0};
 inline long allocation_count() { return g_allocations.load(); }
 }  // namespace alphainv::test
 
+// GCC cannot see that operator new below is malloc-based and warns on the matching free().
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
+#endif
+
 void* operator new(std::size_t size) {
   alphainv::test::g_allocations.fetch_add(1);
   if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
