@@ -65,9 +65,9 @@ TEST(FitPipeline, RecoversModelFromItsOwnSimulation) {
   EXPECT_LT(fit.alpha.c_rms_relative, 0.05);
   EXPECT_LT(fit.alpha.beta_rms_relative, 0.04);  // includes the inertia model's own β̃ error (< 3 %)
   // Validation: the α-model reproduces the α-model's step responses far better than the linear.
-  ASSERT_TRUE(std::isfinite(fit.alpha_step_median));
-  EXPECT_GT(fit.lin_step_median / fit.alpha_step_median, 2.6);
-  EXPECT_LT(fit.alpha_phase_p90_deg, 0.5 * fit.lin_phase_p90_deg);
+  ASSERT_TRUE(std::isfinite(fit.alpha_errors.step_median_abs_err));
+  EXPECT_GT(fit.linear_errors.step_median_abs_err / fit.alpha_errors.step_median_abs_err, 2.6);
+  EXPECT_LT(fit.alpha_errors.phase_p90_deg, 0.5 * fit.linear_errors.phase_p90_deg);
 }
 
 TEST(FitPipeline, OnePoseSaysWhyNoInertiaModel) {

@@ -31,6 +31,20 @@ std::string fmt(double x, const char* f = "%.4g") {
   return b;
 }
 
+/// Table cells of one model's errors: magnitude p90 | phase p90 | step median | step p90.
+std::string error_cells(const ModelErrors& e) {
+  return fmt(e.magnitude_p90) + " | " + fmt(e.phase_p90_deg) + " | " + fmt(e.step_median_abs_err) +
+         " | " + fmt(e.step_p90_abs_err);
+}
+
+/// The `--json` object of one model's errors (names other tools read).
+nlohmann::json errors_json(const ModelErrors& e) {
+  return {{"step_median_abs_err", num(e.step_median_abs_err)},
+          {"step_p90_abs_err", num(e.step_p90_abs_err)},
+          {"phase_p90_deg", num(e.phase_p90_deg)},
+          {"magnitude_p90", num(e.magnitude_p90)}};
+}
+
 std::string pose_label(const PoseFit& p) {
   if (!p.gamma1_deg) return "(no pose)";
   return fmt(*p.gamma1_deg, "%.2f") + "° / " + fmt(*p.gamma2_deg, "%.2f") + "°";
@@ -107,23 +121,19 @@ std::string make_report(const Dataset& ds, const DatasetFit& fit, const ModelFil
   r << "\n## Validation: every run simulated under its own controller\n\n"
        "Table 8 style (90th percentile over each pose's sweep) and Table 11 style (|θ_sim − θ| of "
        "square/step runs, median and 90th percentile), per pose:\n\n"
-       "| pose | lin mag p90 | lin phase p90 [°] | α mag p90 | α phase p90 [°] | lin step median | lin "
-       "step p90 | α step median | α step p90 |\n|---|---|---|---|---|---|---|---|---|\n";
+       "| pose | lin mag p90 | lin phase p90 [°] | lin step median | lin step p90 | α mag p90 | α "
+       "phase p90 [°] | α step median | α step p90 |\n|---|---|---|---|---|---|---|---|---|\n";
   for (const auto& p : fit.poses) {
-    r << "| " << pose_label(p) << " | " << fmt(p.lin_magnitude_p90) << " | " << fmt(p.lin_phase_p90_deg)
-      << " | " << fmt(p.alpha_magnitude_p90) << " | " << fmt(p.alpha_phase_p90_deg) << " | "
-      << fmt(p.lin_step_median) << " | " << fmt(p.lin_step_p90) << " | " << fmt(p.alpha_step_median)
-      << " | " << fmt(p.alpha_step_p90) << " |\n";
+    r << "| " << pose_label(p) << " | " << error_cells(p.linear_errors) << " | "
+      << error_cells(p.alpha_errors) << " |\n";
   }
-  r << "| **median** | " << fmt(fit.lin_magnitude_p90) << " | " << fmt(fit.lin_phase_p90_deg) << " | "
-    << fmt(fit.alpha_magnitude_p90) << " | " << fmt(fit.alpha_phase_p90_deg) << " | "
-    << fmt(fit.lin_step_median) << " | " << fmt(fit.lin_step_p90) << " | " << fmt(fit.alpha_step_median)
-    << " | " << fmt(fit.alpha_step_p90) << " |\n";
+  r << "| **median** | " << error_cells(fit.linear_errors) << " | " << error_cells(fit.alpha_errors)
+    << " |\n";
   r << "\nRelative position error ‖θ_sim − θ‖/‖θ‖ per run:\n\n| run | linear | α-model |\n|---|---|---|\n";
   for (const auto& v : fit.validation) {
     if (!v.simulated) continue;
-    r << "| " << ds.runs[v.run].file << " | " << fmt(100 * v.lin_rel_position_error, "%.4f") << " % | "
-      << fmt(100 * v.alpha_rel_position_error, "%.4f") << " % |\n";
+    r << "| " << ds.runs[v.run].file << " | " << fmt(100 * v.linear.rel_position_error, "%.4f")
+      << " % | " << fmt(100 * v.alpha.rel_position_error, "%.4f") << " % |\n";
   }
   return r.str();
 }
@@ -191,30 +201,27 @@ int run_fit(const FitCommandOptions& opt) {
     std::fprintf(stderr, "omni_fit fit: writing %s: %s\n", out.string().c_str(), e.what());
     return 2;
   }
-  const double ratio = fit.alpha_step_median > 0.0 ? fit.lin_step_median / fit.alpha_step_median
-                                                   : std::nan("");
+  const double ratio = fit.alpha_errors.step_median_abs_err > 0.0
+                           ? fit.linear_errors.step_median_abs_err / fit.alpha_errors.step_median_abs_err
+                           : std::nan("");
   if (opt.json) {
     nlohmann::json j;
     j["runs"] = ds.runs.size();
     j["poses"] = fit.poses.size();
-    j["linear"] = {{"step_median_abs_err", num(fit.lin_step_median)},
-                   {"step_p90_abs_err", num(fit.lin_step_p90)},
-                   {"phase_p90_deg", num(fit.lin_phase_p90_deg)},
-                   {"magnitude_p90", num(fit.lin_magnitude_p90)}};
-    j["alpha"] = {{"step_median_abs_err", num(fit.alpha_step_median)},
-                  {"step_p90_abs_err", num(fit.alpha_step_p90)},
-                  {"phase_p90_deg", num(fit.alpha_phase_p90_deg)},
-                  {"magnitude_p90", num(fit.alpha_magnitude_p90)}};
+    j["linear"] = errors_json(fit.linear_errors);
+    j["alpha"] = errors_json(fit.alpha_errors);
     j["step_error_ratio"] = num(ratio);
     j["model"] = (out / "model.json").string();
     std::printf("%s\n", j.dump().c_str());
   } else if (!opt.quiet) {
     std::printf("omni_fit fit: %zu runs, %zu poses; model %s, report %s\n", ds.runs.size(),
                 fit.poses.size(), (out / "model.json").c_str(), (out / "report.md").c_str());
-    std::printf("  linear:  step median %s, phase p90 %s deg\n", fmt(fit.lin_step_median).c_str(),
-                fmt(fit.lin_phase_p90_deg).c_str());
+    std::printf("  linear:  step median %s, phase p90 %s deg\n",
+                fmt(fit.linear_errors.step_median_abs_err).c_str(),
+                fmt(fit.linear_errors.phase_p90_deg).c_str());
     std::printf("  alpha:   step median %s, phase p90 %s deg; step error ratio %s\n",
-                fmt(fit.alpha_step_median).c_str(), fmt(fit.alpha_phase_p90_deg).c_str(),
+                fmt(fit.alpha_errors.step_median_abs_err).c_str(),
+                fmt(fit.alpha_errors.phase_p90_deg).c_str(),
                 fmt(ratio).c_str());
     for (const auto& n : fit.notes) std::printf("  note: %s\n", n.c_str());
   }

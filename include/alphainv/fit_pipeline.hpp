@@ -7,6 +7,7 @@
 /// `notes` and leaves the affected parts empty. Throws alphainv::Error only for unreadable input.
 
 #include <cstddef>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -41,6 +42,17 @@ struct SineRunPoint {
   double phase_deg = 0.0;        ///< measured phase of θ relative to r [deg]
 };
 
+/// How well one model (linear or α) reproduces a set of runs: Table 8 (fundamental magnitude and
+/// phase, 90th percentile over a sweep) and Table 11 (|θ_sim − θ| of square/step runs, median and
+/// 90th percentile). NaN where the runs of that kind are absent. The names are those of
+/// `omni_fit fit --json`.
+struct ModelErrors {
+  double magnitude_p90 = std::numeric_limits<double>::quiet_NaN();        ///< [1]
+  double phase_p90_deg = std::numeric_limits<double>::quiet_NaN();        ///< [deg]
+  double step_median_abs_err = std::numeric_limits<double>::quiet_NaN(); ///< [position unit]
+  double step_p90_abs_err = std::numeric_limits<double>::quiet_NaN();     ///< [position unit]
+};
+
 /// One pose (set of runs with the same γ1, γ2).
 struct PoseFit {
   std::optional<double> gamma1_deg, gamma2_deg;  ///< measured pose, if the runs give it
@@ -48,22 +60,23 @@ struct PoseFit {
   GlobalLinearFit linear;                        ///< eq. (22) on `band_hz`
   double band_lo_hz = 0.0, band_hi_hz = 0.0;     ///< frequency band used for (22)
   double inertia = 1.0;                          ///< I from the inertia model, or 1 without one
-  // Validation (NaN when the pose has no run of the kind):
-  double lin_magnitude_p90 = 0.0, lin_phase_p90_deg = 0.0;
-  double alpha_magnitude_p90 = 0.0, alpha_phase_p90_deg = 0.0;
-  double lin_step_median = 0.0, lin_step_p90 = 0.0;
-  double alpha_step_median = 0.0, alpha_step_p90 = 0.0;
+  ModelErrors linear_errors, alpha_errors;        ///< validation over this pose's runs
+};
+
+/// How one model's simulation of one run compares with the measurement.
+struct RunErrors {
+  bool simulated = false;
+  FundamentalError fundamental;          ///< sine runs, over the steady-state window
+  AbsErrorStats abs;                     ///< |θ_sim − θ| over the whole run
+  double rel_position_error = std::numeric_limits<double>::quiet_NaN();  ///< ‖θ_sim − θ‖/‖θ‖ [1]
 };
 
 /// Validation of one run.
 struct RunValidation {
   std::size_t run = 0;
-  bool simulated = false;
+  bool simulated = false;  ///< the linear simulation ran (the α one too when the α-model exists)
   std::string message;
-  FundamentalError lin_fundamental, alpha_fundamental;  ///< sine runs
-  AbsErrorStats lin_abs, alpha_abs;                     ///< all runs: |θ_sim − θ| over the run
-  double lin_rel_position_error = 0.0;   ///< ‖θ_sim − θ‖/‖θ‖ over the run [1]
-  double alpha_rel_position_error = 0.0;
+  RunErrors linear, alpha;
 };
 
 /// Everything fit_dataset() finds.
@@ -76,10 +89,7 @@ struct DatasetFit {
   AlphaFitResult alpha;        ///< alpha.ok when the α-model was fitted
   std::vector<RunValidation> validation;
   std::vector<std::string> notes;  ///< what could not be done, and why; choices made
-  // Medians over poses of the Table 8 / 11 figures (NaN when absent):
-  double lin_step_median = 0.0, lin_step_p90 = 0.0, alpha_step_median = 0.0, alpha_step_p90 = 0.0;
-  double lin_phase_p90_deg = 0.0, lin_magnitude_p90 = 0.0;
-  double alpha_phase_p90_deg = 0.0, alpha_magnitude_p90 = 0.0;
+  ModelErrors linear_errors, alpha_errors;  ///< medians over poses of the per-pose figures
   /// The model at a run's pose, for simulation (linear and α parts).
   JointModelAtPose model_for_pose(std::size_t pose) const;
 };

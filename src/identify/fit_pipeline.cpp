@@ -264,31 +264,29 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
           continue;
         }
         rv.simulated = true;
-        auto rel = [&](const std::vector<double>& sim) {
+        const bool periodic = is_periodic_kind(run);
+        IndexRange win;
+        if (periodic) {
+          const double duration = d.t.back() - d.t.front();
+          win = steady_state_window(d.t, *run.freq_hz, options.settle_fraction * duration);
+        }
+        auto compare = [&](const SimulationResult& sim, RunErrors& e) {
+          if (!sim.ok) return;
+          e.simulated = true;
+          e.abs = abs_error_stats(d.theta, sim.theta, 0, d.size());
           double num = 0.0, den = 0.0;
           for (std::size_t k = 0; k < d.size(); ++k) {
-            num += std::pow(sim[k] - d.theta[k], 2);
+            num += std::pow(sim.theta[k] - d.theta[k], 2);
             den += d.theta[k] * d.theta[k];
           }
-          return den > 0.0 ? std::sqrt(num / den) : kNaN;
-        };
-        rv.lin_abs = abs_error_stats(d.theta, lin.theta, 0, d.size());
-        rv.lin_rel_position_error = rel(lin.theta);
-        if (alp.ok) {
-          rv.alpha_abs = abs_error_stats(d.theta, alp.theta, 0, d.size());
-          rv.alpha_rel_position_error = rel(alp.theta);
-        }
-        if (is_periodic_kind(run)) {
-          const double duration = d.t.back() - d.t.front();
-          const IndexRange win =
-              steady_state_window(d.t, *run.freq_hz, options.settle_fraction * duration);
-          rv.lin_fundamental =
-              fundamental_error(d.t, d.r, d.theta, lin.theta, *run.freq_hz, win.begin, win.end);
-          if (alp.ok) {
-            rv.alpha_fundamental =
-                fundamental_error(d.t, d.r, d.theta, alp.theta, *run.freq_hz, win.begin, win.end);
+          e.rel_position_error = den > 0.0 ? std::sqrt(num / den) : kNaN;
+          if (periodic) {
+            e.fundamental =
+                fundamental_error(d.t, d.r, d.theta, sim.theta, *run.freq_hz, win.begin, win.end);
           }
-        }
+        };
+        compare(lin, rv.linear);
+        compare(alp, rv.alpha);
       }
     };
     std::vector<std::thread> pool;
@@ -296,57 +294,43 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
     worker();
     for (auto& th : pool) th.join();
 
-    // Per pose: Table 8 (90th percentile over the sweep) and Table 11 (median, p90 of |error|).
-    std::vector<double> lm, lp, am, ap, lsm, lsp, asm_, asp;
-    for (std::size_t p = 0; p < fit.poses.size(); ++p) {
-      PoseFit& pose = fit.poses[p];
-      std::vector<double> mag_l, ph_l, mag_a, ph_a, step_l, step_a;
-      std::vector<double> step_l90, step_a90;
+    // Per pose: Table 8 (90th percentile over the sweep) and Table 11 (median, p90 of |error|);
+    // then the median of each figure over the poses.
+    auto pose_errors = [&](const PoseFit& pose, RunErrors RunValidation::*model) {
+      std::vector<double> mag, phase, step_median, step_p90;
       for (std::size_t i : pose.runs) {
-        const RunValidation& rv = fit.validation[i];
-        if (!rv.simulated) continue;
-        if (rv.lin_fundamental.valid) {
-          mag_l.push_back(rv.lin_fundamental.magnitude_abs_error);
-          ph_l.push_back(rv.lin_fundamental.phase_abs_error_deg);
-        }
-        if (rv.alpha_fundamental.valid) {
-          mag_a.push_back(rv.alpha_fundamental.magnitude_abs_error);
-          ph_a.push_back(rv.alpha_fundamental.phase_abs_error_deg);
+        const RunErrors& e = fit.validation[i].*model;
+        if (!e.simulated) continue;
+        if (e.fundamental.valid) {
+          mag.push_back(e.fundamental.magnitude_abs_error);
+          phase.push_back(e.fundamental.phase_abs_error_deg);
         }
         if (is_step_kind(dataset.runs[i])) {
-          step_l.push_back(rv.lin_abs.median);
-          step_l90.push_back(rv.lin_abs.p90);
-          if (rv.alpha_abs.n > 0) {
-            step_a.push_back(rv.alpha_abs.median);
-            step_a90.push_back(rv.alpha_abs.p90);
-          }
+          step_median.push_back(e.abs.median);
+          step_p90.push_back(e.abs.p90);
         }
       }
-      pose.lin_magnitude_p90 = finite_p90(mag_l);
-      pose.lin_phase_p90_deg = finite_p90(ph_l);
-      pose.alpha_magnitude_p90 = finite_p90(mag_a);
-      pose.alpha_phase_p90_deg = finite_p90(ph_a);
-      pose.lin_step_median = finite_median(step_l);
-      pose.lin_step_p90 = finite_median(step_l90);
-      pose.alpha_step_median = finite_median(step_a);
-      pose.alpha_step_p90 = finite_median(step_a90);
-      lm.push_back(pose.lin_magnitude_p90);
-      lp.push_back(pose.lin_phase_p90_deg);
-      am.push_back(pose.alpha_magnitude_p90);
-      ap.push_back(pose.alpha_phase_p90_deg);
-      lsm.push_back(pose.lin_step_median);
-      lsp.push_back(pose.lin_step_p90);
-      asm_.push_back(pose.alpha_step_median);
-      asp.push_back(pose.alpha_step_p90);
+      return ModelErrors{finite_p90(mag), finite_p90(phase), finite_median(step_median),
+                         finite_median(step_p90)};
+    };
+    auto median_over_poses = [&](ModelErrors PoseFit::*model) {
+      std::vector<double> mag, phase, step_median, step_p90;
+      for (const PoseFit& pose : fit.poses) {
+        const ModelErrors& e = pose.*model;
+        mag.push_back(e.magnitude_p90);
+        phase.push_back(e.phase_p90_deg);
+        step_median.push_back(e.step_median_abs_err);
+        step_p90.push_back(e.step_p90_abs_err);
+      }
+      return ModelErrors{finite_median(mag), finite_median(phase), finite_median(step_median),
+                         finite_median(step_p90)};
+    };
+    for (PoseFit& pose : fit.poses) {
+      pose.linear_errors = pose_errors(pose, &RunValidation::linear);
+      pose.alpha_errors = pose_errors(pose, &RunValidation::alpha);
     }
-    fit.lin_magnitude_p90 = finite_median(lm);
-    fit.lin_phase_p90_deg = finite_median(lp);
-    fit.alpha_magnitude_p90 = finite_median(am);
-    fit.alpha_phase_p90_deg = finite_median(ap);
-    fit.lin_step_median = finite_median(lsm);
-    fit.lin_step_p90 = finite_median(lsp);
-    fit.alpha_step_median = finite_median(asm_);
-    fit.alpha_step_p90 = finite_median(asp);
+    fit.linear_errors = median_over_poses(&PoseFit::linear_errors);
+    fit.alpha_errors = median_over_poses(&PoseFit::alpha_errors);
   }
   return fit;
 }
