@@ -2,11 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <complex>
 
 #include <gtest/gtest.h>
 
 #include "alphainv/identify.hpp"
 #include "alphainv/inertia_model.hpp"
+#include "alphainv/virtual_omni.hpp"
 
 namespace alphainv {
 namespace {
@@ -175,6 +177,101 @@ TEST(Simulate, BadInputGivesMessageNotCrash) {
   res = simulate(bad, Controller{}, ref, uniform_times(0.1, 1e-3));
   EXPECT_FALSE(res.ok);
   EXPECT_FALSE(simulate(m, Controller{}, ref, {}).ok);
+}
+
+TEST(SimulateEffects, OffsetTorqueGivesClosedFormSteadyStateError) {
+  // P law, constant r: at rest 0 = β̃(kp(r − θ) + d0), so θ = r + d0/kp.
+  JointModelAtPose m = paper_pose_model(false);
+  m.effects.offset_v = 0.01;
+  Controller ctl;  // kp = 2
+  const SampledReference ref({0.0, 6.0}, {0.05, 0.05});
+  const auto times = uniform_times(6.0, 1e-3);
+  for (Integrator integ : {Integrator::kFixedPointRk4, Integrator::kCvode}) {
+    SimulationOptions opt;
+    opt.integrator = integ;
+    const SimulationResult res = simulate(m, ctl, ref, times, {}, opt);
+    ASSERT_TRUE(res.ok) << res.message;
+    EXPECT_NEAR(res.theta.back(), 0.05 + 0.01 / 2.0, 1e-7);
+  }
+}
+
+TEST(SimulateEffects, DelayMatchesTheClosedFormFrequencyResponse) {
+  // θ/r = β e^{−jωτ} / (β e^{−jωτ} − ω² + jωC), β = β̃·kp.
+  JointModelAtPose m = paper_pose_model(false);
+  m.effects.delay_s = 0.004;
+  Controller ctl;
+  const double ar = 0.07, f = 3.0, w = 2 * M_PI * f, tau = 0.004;
+  const double c = m.c_linear, beta = m.beta_tilde_linear * ctl.kp;
+  const std::complex<double> num = beta * std::exp(std::complex<double>(0, -w * tau));
+  const std::complex<double> h = num / (num - w * w + std::complex<double>(0, w * c));
+  const SineReference ref(ar, f);
+  const auto times = uniform_times(10.0, 1e-3);
+  const SimulationResult res = simulate(m, ctl, ref, times);
+  ASSERT_TRUE(res.ok) << res.message;
+  const IndexRange win = steady_state_window(times, f, 7.0);
+  const SineFit fit = fit_sine(times.data() + win.begin, res.theta.data() + win.begin, win.size(), w);
+  // v(t − τ) is interpolated linearly between 1 ms steps: an error of order (ωh)²/8 ≈ 5e-5.
+  EXPECT_NEAR(fit.a1, ar * h.imag(), 5e-4 * ar);
+  EXPECT_NEAR(fit.a2, ar * h.real(), 5e-4 * ar);
+  // Without the delay the phase is smaller: the delay is really there.
+  m.effects.delay_s = 0.0;
+  const SimulationResult nodelay = simulate(m, ctl, ref, times);
+  const SineFit f0 = fit_sine(times.data() + win.begin, nodelay.theta.data() + win.begin, win.size(), w);
+  EXPECT_GT(std::abs(fit.a1 - f0.a1), 0.05 * ar);
+  // CVODE does not take a delay: a message, not a wrong answer.
+  SimulationOptions cv;
+  cv.integrator = Integrator::kCvode;
+  m.effects.delay_s = 0.004;
+  const SimulationResult bad = simulate(m, ctl, ref, times, {}, cv);
+  EXPECT_FALSE(bad.ok);
+  EXPECT_NE(bad.message.find("delay"), std::string::npos);
+}
+
+TEST(SimulateEffects, SaturationGivesTheOpenLoopRampWhileSaturated) {
+  // |v| clamped at vmax from rest: θ = θ0 + (β̃ vmax/C)(t − (1 − e^{−Ct})/C) while saturated.
+  JointModelAtPose m = paper_pose_model(false);
+  m.effects.saturation_v = 0.02;
+  Controller ctl;
+  const SampledReference ref({0.0, 1.0}, {0.07, 0.07});
+  const auto times = uniform_times(0.05, 1e-3);
+  const SimulationResult res = simulate(m, ctl, ref, times, {-0.07, 0.0, 0.0});
+  ASSERT_TRUE(res.ok) << res.message;
+  const double c = m.c_linear, bv = m.beta_tilde_linear * 0.02;
+  for (std::size_t k = 0; k < times.size(); k += 10) {
+    const double t = times[k];
+    EXPECT_NEAR(res.theta[k], -0.07 + bv / c * (t - (1 - std::exp(-c * t)) / c), 1e-9) << t;
+  }
+}
+
+TEST(SimulateEffects, DigitalLoopReproducesTheVirtualPlant) {
+  // The digital loop is the virtual Omni without measurement effects: same θ to rounding.
+  VirtualOmniParams p;
+  p.effects.coulomb_v = 0.004;
+  p.effects.delay_s = 0.0025;
+  p.effects.deadzone_v = 0.001;
+  p.effects.cogging_v = 0.002;
+  p.initial_theta_rad = -0.07;
+  Controller ctl;
+  ctl.kp = 2.0;
+  p.initial_command_v = ctl.kp * (0.07 - -0.07);
+  VirtualOmni omni(p);
+  const SquareReference ref(0.07, 0.5);
+  const RunData run = run_closed_loop(omni, ctl, ref, 3.0);
+
+  JointModelAtPose m = model_at_pose(paper_linear_model(), paper_alpha_model(), deg_to_rad(p.gamma1_deg),
+                                     deg_to_rad(p.gamma2_deg), true);
+  m.effects = p.effects;
+  SimulationOptions opt;
+  opt.loop_period_s = 1e-3;
+  const SimulationResult res = simulate(m, ctl, ref, run.t, {-0.07, 0.0, 0.0}, opt);
+  ASSERT_TRUE(res.ok) << res.message;
+  ASSERT_EQ(res.theta.size(), run.theta.size());
+  EXPECT_LT(max_abs_diff(res.theta, run.theta), 1e-12);
+  EXPECT_LT(max_abs_diff(res.v, run.v), 1e-10);
+  // The continuous law (43) differs from the sampled one by the hold's half-tick delay.
+  const SimulationResult cont = simulate(m, ctl, ref, run.t, {-0.07, 0.0, 0.0});
+  ASSERT_TRUE(cont.ok) << cont.message;
+  EXPECT_GT(max_abs_diff(cont.theta, run.theta), 1e-5);
 }
 
 }  // namespace

@@ -2,7 +2,11 @@
 /// \file simulate.hpp
 /// Closed-loop simulation of θ̈ + C(α,I)·θ̇ = β̃(α,I)·v(t) under the PID law, eq. (43), by the
 /// paper's fixed-point scheme (44)-(46) on a fixed-step RK4 grid, or by SUNDIALS CVODE on the same
-/// right-hand side. Not real-time (allocates the result); never throws on bad input: the result says.
+/// right-hand side, with the effects of effects.hpp added to eq. (11). Or, with
+/// SimulationOptions::loop_period_s > 0, as the digital loop a real rig runs: the PID law sampled
+/// every tick with its command held over the tick (zero-order hold) and α from the streaming
+/// estimator on the applied command (the plant of virtual_omni.hpp, without measurement effects).
+/// Not real-time (allocates the result); never throws on bad input: the result says.
 
 #include <cstddef>
 #include <string>
@@ -10,6 +14,7 @@
 
 #include "alphainv/controller.hpp"
 #include "alphainv/damping_model.hpp"
+#include "alphainv/effects.hpp"
 #include "alphainv/inertia_model.hpp"
 #include "alphainv/reference.hpp"
 
@@ -22,6 +27,7 @@ struct JointModelAtPose {
   double c_linear = 0.0;          ///< C_linear(I) [1/s]; also the start of the fixed point (45)
   double beta_tilde_linear = 0.0; ///< β̃_linear(I) [rad/s² per command unit]
   AlphaModel alpha;               ///< used when use_alpha
+  Effects effects;                ///< effects beyond the model (effects.hpp), all off by default
 };
 
 /// The model at pose (γ1, γ2): I from the inertia model (6), C_linear and β̃_linear from (24)-(25),
@@ -50,6 +56,10 @@ struct SimulationOptions {
   int max_iterations = 50;          ///< fixed-point iteration cap per right-hand-side evaluation
   double cvode_rel_tol = 1e-8;      ///< CVODE relative tolerance
   double cvode_abs_tol = 1e-10;     ///< CVODE absolute tolerance
+  /// > 0: simulate the digital loop with this tick period [s] (see the file comment); the output
+  /// times are then interpolated linearly from the ticks t0 + k·T. 0: the continuous law (43).
+  double loop_period_s = 0.0;
+  double loop_alpha_cutoff_hz = 25.0;  ///< digital loop: the α estimator's cut-off [Hz]
 };
 
 /// Simulated trajectory at the requested times and how the solver did.
@@ -82,6 +92,8 @@ struct InitialState {
 };
 
 /// Simulates from times.front() and reports at each entry of `times_s` (strictly increasing).
+/// A time delay in model.effects needs the fixed-point RK4 integrator (its steps are then limited
+/// to the delay, and v(t − τ) is interpolated from the steps taken) or the digital loop.
 SimulationResult simulate(const JointModelAtPose& model, const Controller& controller,
                           const Reference& reference, const std::vector<double>& times_s,
                           const InitialState& initial = {}, const SimulationOptions& options = {});

@@ -47,30 +47,15 @@
 #include "alphainv/controller.hpp"
 #include "alphainv/damping_model.hpp"
 #include "alphainv/dataset.hpp"
+#include "alphainv/effects.hpp"
 #include "alphainv/inertia_model.hpp"
 #include "alphainv/reference.hpp"
 #include "alphainv/rt/alpha_estimator.hpp"
 
 namespace alphainv {
 
-/// The physical effects beyond the α-invariant model. Each is off at its default value (0, or
-/// infinity for the saturation). Disturbance levels are in command units (eq. (11)).
-struct PlantEffects {
-  double coulomb_v = 0.0;                 ///< Coulomb friction level Fc [command unit], ≥ 0
-  double coulomb_smoothing_rad_s = 1e-3;  ///< tanh smoothing velocity ε [rad/s], > 0
-  double offset_v = 0.0;                  ///< constant offset torque d0 [command unit]
-  double gravity_v = 0.0;                 ///< gravity torque amplitude g [command unit]
-  double gravity_theta0_rad = 0.0;        ///< gravity phase θ0 [rad]: n = −g·sin(θ + θ0)
-  double cogging_v = 0.0;                 ///< cogging amplitude a [command unit]
-  double cogging_period_rad = 0.02;       ///< cogging period p in θ [rad], > 0
-  double cogging_phase_rad = 0.0;         ///< cogging phase φ [rad]
-  double delay_s = 0.0;  ///< command transport delay τ [s], 0 ≤ τ ≤ kMaxDelayS
-  double saturation_v = std::numeric_limits<double>::infinity();  ///< amplifier limit v_max > 0
-  double deadzone_v = 0.0;  ///< amplifier deadzone half-width d [command unit], ≥ 0
-
-  /// Longest delay the plant accepts [s] (the delay line is sized at construction).
-  static constexpr double kMaxDelayS = 1.0;
-};
+/// The plant's effects: the catalogue of effects.hpp (all off by default).
+using PlantEffects = Effects;
 
 /// Encoder effects on the measured angle.
 struct MeasurementEffects {

@@ -12,6 +12,8 @@
 #include <sunmatrix/sunmatrix_dense.h>
 
 #include "alphainv/alpha.hpp"
+#include "alphainv/error.hpp"
+#include "alphainv/virtual_omni.hpp"
 
 namespace alphainv {
 
@@ -39,7 +41,30 @@ class ClosedLoop {
     b_at_[1] = 1.0 / (a.beta_n1[1] * model.inertia);
   }
 
-  RhsValue eval(const ReferenceSample& ref, const State& x) {
+  /// v(t − τ) of the command history (the command before the first entry is the first one).
+  double delayed_command(double t, double v_now) const {
+    if (!(model_.effects.delay_s > 0.0) || history_t_.empty()) return v_now;
+    const double td = t - model_.effects.delay_s;
+    if (td <= history_t_.front()) return history_v_.front();
+    if (td >= history_t_.back()) return history_v_.back();
+    const auto it = std::upper_bound(history_t_.begin(), history_t_.end(), td);
+    const std::size_t j = static_cast<std::size_t>(it - history_t_.begin());
+    const double w = (td - history_t_[j - 1]) / (history_t_[j] - history_t_[j - 1]);
+    return (1.0 - w) * history_v_[j - 1] + w * history_v_[j];
+  }
+
+  /// Appends the command at the start of an accepted step (for the delay).
+  void commit(double t, double v) {
+    if (!(model_.effects.delay_s > 0.0)) return;
+    if (!history_t_.empty() && t <= history_t_.back()) return;
+    history_t_.push_back(t);
+    history_v_.push_back(v);
+  }
+
+  bool has_delay() const { return model_.effects.delay_s > 0.0; }
+  double delay_s() const { return model_.effects.delay_s; }
+
+  RhsValue eval(double t, const ReferenceSample& ref, const State& x) {
     ++stats_.rhs_evaluations;
     const double theta = x[0], phi = x[1], z = x[2];
     const double e = ref.r - theta;
@@ -61,15 +86,19 @@ class ClosedLoop {
     };
     RhsValue out;
     out.v = v;
+    // The applied input: the command through delay, deadzone and saturation, plus the torque-like
+    // effects n(θ, Φ) (eq. (11) with effects.hpp). α stays that of the controller's command.
+    const Effects& fx = model_.effects;
+    const double u = amplifier(fx, delayed_command(t, v)) + effect_torque(fx, theta, phi);
     double c = model_.c_linear, b = model_.beta_tilde_linear;
-    double phi_dot = -c * phi + b * v;  // eq. (45) with erratum 4: the linear-model Φ̇
+    double phi_dot = -c * phi + b * u;  // eq. (45) with erratum 4: the linear-model Φ̇
     double alpha = alpha_instantaneous(v, v_dot_of(phi_dot), v_ddot_of(phi_dot));
     if (model_.use_alpha) {
       int it = 0;
       for (;;) {
         c = interpolate_held(model_.alpha.alpha.data(), c_at_.data(), n_, alpha);
         b = interpolate_held(model_.alpha.beta_alpha.data(), b_at_.data(), 2, alpha);
-        phi_dot = -c * phi + b * v;  // eq. (44)
+        phi_dot = -c * phi + b * u;  // eq. (44)
         const double next = alpha_instantaneous(v, v_dot_of(phi_dot), v_ddot_of(phi_dot));
         ++it;
         const bool converged =
@@ -83,7 +112,7 @@ class ClosedLoop {
       // Coefficients consistent with the final α (eq. (46) met).
       c = interpolate_held(model_.alpha.alpha.data(), c_at_.data(), n_, alpha);
       b = interpolate_held(model_.alpha.beta_alpha.data(), b_at_.data(), 2, alpha);
-      phi_dot = -c * phi + b * v;
+      phi_dot = -c * phi + b * u;
       stats_.fixed_point_iterations += it;
       stats_.max_fixed_point_iterations = std::max(stats_.max_fixed_point_iterations, it);
     }
@@ -102,6 +131,7 @@ class ClosedLoop {
   std::size_t n_ = 0;
   std::array<double, kMaxBreakpoints> c_at_{};
   std::array<double, 2> b_at_{};
+  std::vector<double> history_t_, history_v_;  ///< command history (delay only)
 };
 
 /// Reference value at t; at the right end of a segment that ends in a jump, the left limit.
@@ -138,7 +168,10 @@ bool state_finite(const State& x) {
 
 void simulate_rk4(ClosedLoop& loop, const Reference& ref, const std::vector<double>& times,
                   State x, const SimulationOptions& opt, SimulationResult& res) {
-  record(res, times[0], x, loop.eval(ref.at(times[0]), x));
+  record(res, times[0], x, loop.eval(times[0], ref.at(times[0]), x));
+  double max_step = opt.max_step_s;
+  // With a delay τ, steps no longer than τ keep v(t − τ) inside the history of accepted steps.
+  if (loop.has_delay()) max_step = std::min(max_step, loop.delay_s());
   for (std::size_t k = 0; k + 1 < times.size(); ++k) {
     double t = times[k];
     const std::vector<double> ends = segment_ends(ref, times[k], times[k + 1]);
@@ -147,14 +180,16 @@ void simulate_rk4(ClosedLoop& loop, const Reference& ref, const std::vector<doub
       const bool end_is_jump = s + 1 < ends.size() || seg_end != times[k + 1];
       const double span = seg_end - t;
       if (span <= 0.0) continue;
-      const int steps = std::max(1, static_cast<int>(std::ceil(span / opt.max_step_s - 1e-9)));
+      const int steps = std::max(1, static_cast<int>(std::ceil(span / max_step - 1e-9)));
       const double h = span / steps;
       for (int i = 0; i < steps; ++i) {
         const double ts = t + i * h;
         auto f = [&](double tt, const State& xx) {
-          return loop.eval(ref_at(ref, tt, seg_end, end_is_jump), xx).dx;
+          return loop.eval(tt, ref_at(ref, tt, seg_end, end_is_jump), xx).dx;
         };
-        const State k1 = f(ts, x);
+        const RhsValue f1 = loop.eval(ts, ref_at(ref, ts, seg_end, end_is_jump), x);
+        loop.commit(ts, f1.v);
+        const State k1 = f1.dx;
         State x2, x3, x4;
         for (int j = 0; j < 3; ++j) x2[j] = x[j] + 0.5 * h * k1[j];
         const State k2 = f(ts + 0.5 * h, x2);
@@ -170,7 +205,7 @@ void simulate_rk4(ClosedLoop& loop, const Reference& ref, const std::vector<doub
       res.message = "the state became non-finite at t = " + std::to_string(times[k + 1]) + " s";
       return;
     }
-    record(res, times[k + 1], x, loop.eval(ref.at(times[k + 1]), x));
+    record(res, times[k + 1], x, loop.eval(times[k + 1], ref.at(times[k + 1]), x));
   }
   res.ok = true;
 }
@@ -187,7 +222,7 @@ int cvode_rhs(sunrealtype t, N_Vector y, N_Vector ydot, void* user) {
   const double* yy = N_VGetArrayPointer(y);
   const State x{yy[0], yy[1], yy[2]};
   if (!state_finite(x)) return 1;  // recoverable: CVODE retries with a smaller step
-  const RhsValue f = u->loop->eval(ref_at(*u->ref, t, u->segment_end, u->end_is_jump), x);
+  const RhsValue f = u->loop->eval(t, ref_at(*u->ref, t, u->segment_end, u->end_is_jump), x);
   double* dd = N_VGetArrayPointer(ydot);
   dd[0] = f.dx[0];
   dd[1] = f.dx[1];
@@ -235,7 +270,7 @@ void simulate_cvode(ClosedLoop& loop, const Reference& ref, const std::vector<do
   CVodeSetMaxNumSteps(h.mem, 1000000);
   CVodeSetMaxStep(h.mem, std::max(opt.max_step_s, 1e-6));
 
-  record(res, times[0], x, loop.eval(ref.at(times[0]), x));
+  record(res, times[0], x, loop.eval(times[0], ref.at(times[0]), x));
   const std::vector<double> ends = segment_ends(ref, times.front(), times.back());
   std::size_t k = 1;
   double t_now = times[0];
@@ -255,7 +290,7 @@ void simulate_cvode(ClosedLoop& loop, const Reference& ref, const std::vector<do
       }
       t_now = t_ret;
       const State xs{yy[0], yy[1], yy[2]};
-      record(res, times[k], xs, loop.eval(ref.at(times[k]), xs));
+      record(res, times[k], xs, loop.eval(times[k], ref.at(times[k]), xs));
       ++k;
     }
     if (t_now < ends[s]) {
@@ -268,6 +303,97 @@ void simulate_cvode(ClosedLoop& loop, const Reference& ref, const std::vector<do
       t_now = t_ret;
     }
   }
+  res.ok = true;
+}
+
+/// The digital loop (file comment of simulate.hpp): the plant of virtual_omni.hpp with the model's
+/// C, β̃ and effects, no measurement effects, driven by the sampled PID law of run_closed_loop.
+void simulate_digital(const JointModelAtPose& model, const Controller& ctl, const Reference& ref,
+                      const std::vector<double>& times, const InitialState& init,
+                      const SimulationOptions& opt, SimulationResult& res) {
+  const double T = opt.loop_period_s;
+  const double t0 = times.front();
+  VirtualOmniParams p;
+  p.inertia = InertiaModel{model.inertia, 0.0, 0.0, 0.0, 0.0};  // I at any pose = model.inertia
+  p.gamma1_deg = p.gamma2_deg = 0.0;
+  p.alpha_model = model.use_alpha
+                      ? model.alpha
+                      : constant_alpha_model(1.0 / (model.c_linear * model.inertia),
+                                             1.0 / (model.beta_tilde_linear * model.inertia));
+  p.alpha_filter.sample_period_s = T;
+  p.alpha_filter.cutoff_hz = opt.loop_alpha_cutoff_hz;
+  p.tick_period_s = T;
+  p.initial_theta_rad = init.theta;
+  p.initial_theta_dot_rad_s = init.theta_dot;
+  const ReferenceSample r0 = ref.at(t0);
+  p.initial_command_v = ctl.clamp(ctl.kp * (r0.r - init.theta) + ctl.ki * init.integral);
+  p.effects = model.effects;
+  std::unique_ptr<VirtualOmni> omni;
+  std::string last_error;
+  for (int substeps : {4, 16, 64, 256, 1000}) {  // as many as the stiffest effect needs
+    p.substeps = substeps;
+    try {
+      omni = std::make_unique<VirtualOmni>(p);
+      break;
+    } catch (const Error& e) {
+      last_error = e.what();
+    }
+  }
+  if (!omni) {
+    res.message = "digital loop: " + last_error;
+    return;
+  }
+  const double span = times.back() - t0;
+  const auto n_ticks = static_cast<std::size_t>(std::ceil(span / T - 1e-9)) + 1;
+  if (n_ticks > 100000000) {
+    res.message = "digital loop: too many ticks (" + std::to_string(n_ticks) + ")";
+    return;
+  }
+  std::vector<double> tk(n_ticks), th(n_ticks), thd(n_ticks), vk(n_ticks), ak(n_ticks),
+      ck(n_ticks), bk(n_ticks);
+  double integral = init.integral, e_prev = 0.0, theta_prev = init.theta;
+  for (std::size_t k = 0; k < n_ticks; ++k) {
+    const double t = t0 + static_cast<double>(k) * T;
+    const double theta = omni->theta();
+    const double e = ref.at(t).r - theta;
+    integral += T * e;
+    double d = 0.0;
+    if (k > 0) d = ctl.derivative_on == DerivativeOn::kError ? (e - e_prev) / T
+                                                             : -(theta - theta_prev) / T;
+    const double v = ctl.clamp(ctl.kp * e + ctl.ki * integral + ctl.kd * d);
+    tk[k] = t;
+    th[k] = theta;
+    thd[k] = omni->theta_dot();
+    vk[k] = v;
+    omni->step(v);
+    ak[k] = omni->alpha();
+    ck[k] = omni->damping();
+    bk[k] = omni->beta_tilde();
+    e_prev = e;
+    theta_prev = theta;
+    if (!std::isfinite(omni->theta()) || !std::isfinite(omni->theta_dot())) {
+      res.message = "the state became non-finite at t = " + std::to_string(t + T) + " s";
+      return;
+    }
+  }
+  // Linear interpolation of the tick values onto the requested times.
+  std::size_t j = 0;
+  for (double t : times) {
+    while (j + 2 < n_ticks && tk[j + 1] <= t) ++j;
+    double w = n_ticks > 1 ? std::clamp((t - tk[j]) / T, 0.0, 1.0) : 0.0;
+    if (w < 1e-9) w = 0.0;  // on a tick, up to rounding
+    if (w > 1.0 - 1e-9) w = 1.0;
+    const std::size_t j1 = std::min(j + 1, n_ticks - 1);
+    auto lerp = [&](const std::vector<double>& y) { return (1.0 - w) * y[j] + w * y[j1]; };
+    res.t.push_back(t);
+    res.theta.push_back(lerp(th));
+    res.theta_dot.push_back(lerp(thd));
+    res.v.push_back(w < 1.0 ? vk[j] : vk[j1]);  // held over the tick
+    res.alpha.push_back(w < 1.0 ? ak[j] : ak[j1]);
+    res.damping.push_back(w < 1.0 ? ck[j] : ck[j1]);
+    res.beta_tilde.push_back(w < 1.0 ? bk[j] : bk[j1]);
+  }
+  res.rhs_evaluations = static_cast<long>(n_ticks);
   res.ok = true;
 }
 
@@ -309,8 +435,26 @@ SimulationResult simulate(const JointModelAtPose& model, const Controller& contr
                   &res.beta_tilde}) {
     v->reserve(n);
   }
+  try {
+    validate_effects(model.effects, "model.effects.");
+  } catch (const Error& e) {
+    res.message = e.what();
+    return res;
+  }
+  if (options.loop_period_s > 0.0) {
+    if (!std::isfinite(options.loop_period_s)) {
+      res.message = "loop_period_s must be finite";
+      return res;
+    }
+    simulate_digital(model, controller, reference, times_s, initial, options, res);
+    return res;
+  }
   ClosedLoop loop(model, controller, options, res);
   const State x0{initial.theta, initial.theta_dot, initial.integral};
+  if (options.integrator == Integrator::kCvode && model.effects.delay_s > 0.0) {
+    res.message = "a time delay needs the fixed-point RK4 integrator or the digital loop";
+    return res;
+  }
   if (options.integrator == Integrator::kCvode) {
     simulate_cvode(loop, reference, times_s, x0, options, res);
   } else {

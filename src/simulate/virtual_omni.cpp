@@ -120,22 +120,7 @@ void VirtualOmniParams::validate() const {
   require_finite("initial_command_v", initial_command_v);
 
   const PlantEffects& e = effects;
-  require_nonnegative("effects.coulomb_v", e.coulomb_v);
-  if (e.coulomb_v > 0.0)
-    require_positive("effects.coulomb_smoothing_rad_s", e.coulomb_smoothing_rad_s);
-  require_finite("effects.offset_v", e.offset_v);
-  require_finite("effects.gravity_v", e.gravity_v);
-  require_finite("effects.gravity_theta0_rad", e.gravity_theta0_rad);
-  require_finite("effects.cogging_v", e.cogging_v);
-  if (e.cogging_v != 0.0) require_positive("effects.cogging_period_rad", e.cogging_period_rad);
-  require_finite("effects.cogging_phase_rad", e.cogging_phase_rad);
-  if (!std::isfinite(e.delay_s) || e.delay_s < 0.0 || e.delay_s > PlantEffects::kMaxDelayS) {
-    bad("effects.delay_s", "0 <= delay_s <= " + num(PlantEffects::kMaxDelayS) + " s", e.delay_s);
-  }
-  if (std::isnan(e.saturation_v) || !(e.saturation_v > 0.0)) {
-    bad("effects.saturation_v", "a limit > 0 (infinity: none)", e.saturation_v);
-  }
-  require_nonnegative("effects.deadzone_v", e.deadzone_v);
+  validate_effects(e, "effects.");
   require_nonnegative("measurement.quantisation_rad", measurement.quantisation_rad);
   require_nonnegative("measurement.noise_std_rad", measurement.noise_std_rad);
 
@@ -192,23 +177,11 @@ bool VirtualOmni::set_pose(double gamma1_deg, double gamma2_deg) noexcept {
 }
 
 double VirtualOmni::amplifier(double v) const noexcept {
-  const PlantEffects& e = params_.effects;
-  if (e.deadzone_v > 0.0) {  // Z(v) = sign(v)·max(|v| − d, 0)
-    const double mag = std::abs(v) - e.deadzone_v;
-    v = mag > 0.0 ? std::copysign(mag, v) : 0.0;
-  }
-  return std::clamp(v, -e.saturation_v, e.saturation_v);  // S(v)
+  return alphainv::amplifier(params_.effects, v);
 }
 
 double VirtualOmni::effect_torque(double theta_rad, double theta_dot_rad_s) const noexcept {
-  const PlantEffects& e = params_.effects;
-  double n = e.offset_v;
-  if (e.coulomb_v > 0.0) n -= e.coulomb_v * std::tanh(theta_dot_rad_s / e.coulomb_smoothing_rad_s);
-  if (e.gravity_v != 0.0) n -= e.gravity_v * std::sin(theta_rad + e.gravity_theta0_rad);
-  if (e.cogging_v != 0.0) {
-    n += e.cogging_v * std::sin(kTwoPi * theta_rad / e.cogging_period_rad + e.cogging_phase_rad);
-  }
-  return n;
+  return alphainv::effect_torque(params_.effects, theta_rad, theta_dot_rad_s);
 }
 
 void VirtualOmni::integrate(double duration_s, double input_v) noexcept {

@@ -1,0 +1,109 @@
+#pragma once
+/// \file effects.hpp
+/// The physical effects beyond the α-invariant model (the catalogue of `omni_fit diagnose`), as
+/// terms added to eq. (11):
+///     θ̈ + C(α, I)·θ̇ = β̃(α, I)·(S(Z(v(t − τ))) + n(θ, θ̇)),
+///     n = −Fc·tanh(θ̇/ε)          coulomb_friction (smoothed)
+///       + d0                      offset_torque
+///       − g·sin(θ + θ0)           gravity
+///       + a·sin(2π·θ/p + φ)       cogging, periodic in θ,
+/// with τ the command delay (time_delay), Z the deadzone Z(v) = sign(v)·max(|v| − d, 0) (deadzone)
+/// and S the clamp to ±v_max (saturation). Torques are in command units. Every effect is off at its
+/// default. The virtual plant, the simulator and the 1 kHz online model all use these functions.
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace alphainv {
+
+/// Effect parameters. Each effect is off at its default value (0, or infinity for the saturation).
+struct Effects {
+  double coulomb_v = 0.0;                 ///< Coulomb friction level Fc [command unit], ≥ 0
+  double coulomb_smoothing_rad_s = 1e-3;  ///< tanh smoothing velocity ε [position unit/s], > 0
+  double offset_v = 0.0;                  ///< constant offset torque d0 [command unit]
+  double gravity_v = 0.0;                 ///< gravity torque amplitude g [command unit]
+  double gravity_theta0_rad = 0.0;        ///< gravity phase θ0 [rad]: n = −g·sin(θ + θ0)
+  double cogging_v = 0.0;                 ///< cogging amplitude a [command unit]
+  double cogging_period_rad = 0.02;       ///< cogging period p in θ [position unit], > 0
+  double cogging_phase_rad = 0.0;         ///< cogging phase φ [rad]
+  double delay_s = 0.0;  ///< command transport delay τ [s], 0 ≤ τ ≤ kMaxDelayS
+  double saturation_v = std::numeric_limits<double>::infinity();  ///< amplifier limit v_max > 0
+  double deadzone_v = 0.0;  ///< amplifier deadzone half-width d [command unit], ≥ 0
+
+  /// Longest delay accepted [s] (delay lines are sized from it).
+  static constexpr double kMaxDelayS = 1.0;
+};
+
+/// n(θ, θ̇) [command unit]: the torque-like effects (file comment). Real-time safe.
+inline double effect_torque(const Effects& e, double theta, double theta_dot) noexcept {
+  constexpr double kTwoPi = 6.283185307179586476925;
+  double n = e.offset_v;
+  if (e.coulomb_v > 0.0) n -= e.coulomb_v * std::tanh(theta_dot / e.coulomb_smoothing_rad_s);
+  if (e.gravity_v != 0.0) n -= e.gravity_v * std::sin(theta + e.gravity_theta0_rad);
+  if (e.cogging_v != 0.0) {
+    n += e.cogging_v * std::sin(kTwoPi * theta / e.cogging_period_rad + e.cogging_phase_rad);
+  }
+  return n;
+}
+
+/// S(Z(v)): the amplifier's deadzone, then its saturation [command unit]. Real-time safe.
+inline double amplifier(const Effects& e, double v) noexcept {
+  if (e.deadzone_v > 0.0) {  // Z(v) = sign(v)·max(|v| − d, 0)
+    const double mag = std::abs(v) - e.deadzone_v;
+    v = mag > 0.0 ? std::copysign(mag, v) : 0.0;
+  }
+  return std::clamp(v, -e.saturation_v, e.saturation_v);  // S(v)
+}
+
+/// The catalogue of `omni_fit diagnose`.
+enum class EffectKind {
+  kNone,
+  kCoulombFriction,
+  kOffsetTorque,
+  kGravity,
+  kCogging,
+  kTimeDelay,
+  kSaturation,
+  kDeadzone,
+};
+
+/// Every kind, kNone first.
+inline constexpr std::array<EffectKind, 8> kAllEffectKinds = {
+    EffectKind::kNone,    EffectKind::kCoulombFriction, EffectKind::kOffsetTorque,
+    EffectKind::kGravity, EffectKind::kCogging,         EffectKind::kTimeDelay,
+    EffectKind::kSaturation, EffectKind::kDeadzone};
+
+/// The catalogue name: "none", "coulomb_friction", "offset_torque", "gravity", "cogging",
+/// "time_delay", "saturation", "deadzone".
+const char* effect_name(EffectKind kind) noexcept;
+
+/// The kind of a catalogue name; throws alphainv::Error naming the field `field` otherwise.
+EffectKind effect_kind_from_name(std::string_view name, const std::string& field = "effect");
+
+/// One named parameter of an effect and the Effects member that holds it.
+struct EffectParameter {
+  const char* name;         ///< e.g. "coulomb_v"
+  double Effects::*member;  ///< where it lives
+  const char* unit;         ///< "command unit", "rad", "s", …
+};
+
+/// The parameters an effect of `kind` adds to the model (empty for kNone). The smoothing ε of the
+/// Coulomb term is a modelling choice, not a fitted parameter, and is not listed.
+std::vector<EffectParameter> effect_parameters(EffectKind kind);
+
+/// Whether `e` has the effect of `kind` switched on.
+bool effect_active(const Effects& e, EffectKind kind) noexcept;
+
+/// The kinds switched on in `e`, in catalogue order.
+std::vector<EffectKind> active_effects(const Effects& e);
+
+/// Throws alphainv::Error naming the field (prefix + member, e.g. "effects.coulomb_v") when a value
+/// is out of range.
+void validate_effects(const Effects& e, const std::string& prefix = "effects.");
+
+}  // namespace alphainv
