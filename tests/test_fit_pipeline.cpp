@@ -85,14 +85,48 @@ TEST(FitPipeline, OnePoseSaysWhyNoInertiaModel) {
   EXPECT_NEAR(fit.alpha.model.damping(25.0, 1.0), 6.486, 0.05 * 6.486);
 }
 
-TEST(FitPipeline, NoSineRunsSaysSo) {
+TEST(FitPipeline, NoSineRunsSaysSoWithoutTheTimeDomainFit) {
   Dataset ds;
   std::vector<RunData> data;
   make_dataset({{60.08, 87.00}}, ds, data);
   for (auto& r : ds.runs) r.kind = "other";
-  const DatasetFit fit = fit_dataset(ds, data);
+  FitPipelineOptions o;
+  o.time_domain = false;
+  const DatasetFit fit = fit_dataset(ds, data, o);
   EXPECT_FALSE(fit.alpha.ok);
-  EXPECT_FALSE(fit.notes.empty());
+  EXPECT_FALSE(fit.poses[0].linear.valid);
+  bool said = false;
+  for (const auto& n : fit.notes) said = said || n.find("no sine runs") != std::string::npos;
+  EXPECT_TRUE(said);
+}
+
+TEST(FitPipeline, NoSineRunsFitsInTheTimeDomain) {
+  Dataset full;
+  std::vector<RunData> all;
+  make_dataset({{60.08, 87.00}}, full, all);
+  // Two runs, "other" kind, cut to 4 s: a 2 Hz sine and the square wave.
+  Dataset ds = full;
+  ds.runs = {full.runs[1], full.runs[9]};
+  std::vector<RunData> data = {all[1], all[9]};
+  for (auto& r : ds.runs) r.kind = "other";
+  for (auto& d : data) {
+    const std::size_t n = 4001;
+    d.t.resize(n);
+    d.r.resize(n);
+    d.theta.resize(n);
+    d.v.resize(n);
+  }
+  const DatasetFit fit = fit_dataset(ds, data);
+  ASSERT_TRUE(fit.poses[0].linear.valid) << fit.poses[0].linear.message;
+  EXPECT_EQ(fit.poses[0].linear_source, "time domain (output error)");
+  ASSERT_TRUE(fit.alpha.ok) << fit.alpha.message;
+  EXPECT_EQ(fit.alpha_source, "time domain (output error)");
+  EXPECT_EQ(fit.simulation.loop_period_s, 0.0);  // no sample rate: the continuous law
+  // The data came from the α-model itself (noise-free): the α-model reproduces it closely, and
+  // better than the linear one.
+  EXPECT_LT(fit.alpha_errors.rel_position_error_median, 0.05);
+  EXPECT_LT(fit.alpha_errors.rel_position_error_median,
+            0.5 * fit.linear_errors.rel_position_error_median);
 }
 
 }  // namespace

@@ -42,7 +42,8 @@ nlohmann::json errors_json(const ModelErrors& e) {
   return {{"step_median_abs_err", num(e.step_median_abs_err)},
           {"step_p90_abs_err", num(e.step_p90_abs_err)},
           {"phase_p90_deg", num(e.phase_p90_deg)},
-          {"magnitude_p90", num(e.magnitude_p90)}};
+          {"magnitude_p90", num(e.magnitude_p90)},
+          {"rel_position_error_median", num(e.rel_position_error_median)}};
 }
 
 std::string pose_label(const PoseFit& p) {
@@ -85,7 +86,10 @@ std::string make_report(const Dataset& ds, const DatasetFit& fit, const ModelFil
        "β̃_linear | I (model) |\n|---|---|---|---|---|---|\n";
   for (const auto& p : fit.poses) {
     if (!p.linear.valid) continue;
-    r << "| " << pose_label(p) << " | " << fmt(p.band_lo_hz, "%.2f") << "–" << fmt(p.band_hi_hz, "%.2f")
+    const bool from_sine = p.linear_source == "sine (22)";
+    r << "| " << pose_label(p) << " | "
+      << (from_sine ? fmt(p.band_lo_hz, "%.2f") + "–" + fmt(p.band_hi_hz, "%.2f")
+                    : std::string("– (") + p.linear_source + ")")
       << " | " << fmt(p.linear.c_linear) << " | " << fmt(p.linear.beta_linear) << " | "
       << fmt(p.linear.beta_tilde_linear) << " | " << fmt(p.inertia, "%.6g") << " |\n";
   }
@@ -107,8 +111,12 @@ std::string make_report(const Dataset& ds, const DatasetFit& fit, const ModelFil
   }
   if (fit.alpha.ok) {
     const AlphaModel& a = fit.alpha.model;
-    r << "\n## α-invariant model (eqs. 38–42; breakpoints by exhaustive grid search over "
-      << fit.alpha.candidates_tried << " sets)\n\n| n | α_n | C_n1 | SE |\n|---|---|---|---|\n";
+    r << "\n## α-invariant model (eqs. 38–42; "
+      << (fit.alpha_source == "sine (2.3.5)"
+              ? "breakpoints by exhaustive grid search over " +
+                    std::to_string(fit.alpha.candidates_tried) + " sets"
+              : "time domain: output error, breakpoints at quantiles of the commands' α")
+      << ")\n\n| n | α_n | C_n1 | SE |\n|---|---|---|---|\n";
     for (std::size_t k = 0; k < a.n_breakpoints; ++k) {
       r << "| " << k << " | " << fmt(a.alpha[k]) << " | " << fmt(a.c_n1[k]) << " | "
         << fmt(fit.alpha.c_n1_se[k], "%.3g") << " |\n";

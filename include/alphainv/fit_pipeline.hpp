@@ -31,6 +31,9 @@ struct FitPipelineOptions {
   std::size_t n_breakpoints = 4;  ///< N of the α-model
   unsigned threads = 0;           ///< validation simulations in parallel; 0: all cores
   bool validate = true;           ///< simulate every run with both models
+  /// Poses without sine runs get their linear model (and the dataset its α-model, when no sine run
+  /// gave one) by time-domain output error (time_domain_fit.hpp) on their runs.
+  bool time_domain = true;
 };
 
 /// One sine run's local identification.
@@ -51,6 +54,8 @@ struct ModelErrors {
   double phase_p90_deg = std::numeric_limits<double>::quiet_NaN();        ///< [deg]
   double step_median_abs_err = std::numeric_limits<double>::quiet_NaN(); ///< [position unit]
   double step_p90_abs_err = std::numeric_limits<double>::quiet_NaN();     ///< [position unit]
+  /// Median over the runs of ‖θ_sim − θ‖/‖θ‖ (every simulated run, any kind) [1].
+  double rel_position_error_median = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// One pose (set of runs with the same γ1, γ2).
@@ -60,6 +65,8 @@ struct PoseFit {
   GlobalLinearFit linear;                        ///< eq. (22) on `band_hz`
   double band_lo_hz = 0.0, band_hi_hz = 0.0;     ///< frequency band used for (22)
   double inertia = 1.0;                          ///< I from the inertia model, or 1 without one
+  /// How `linear` was identified: "sine (22)" or "time domain (output error)"; empty: not at all.
+  std::string linear_source;
   ModelErrors linear_errors, alpha_errors;        ///< validation over this pose's runs
 };
 
@@ -87,6 +94,11 @@ struct DatasetFit {
   InertiaFitSummary inertia;   ///< valid when has_inertia_model
   double kp = 0.0;             ///< the P gain used to turn β into β̃ (runs must agree)
   AlphaFitResult alpha;        ///< alpha.ok when the α-model was fitted
+  /// How `alpha` was identified: "sine (2.3.5)" or "time domain (output error)".
+  std::string alpha_source;
+  /// The simulation the validation (and a time-domain fit) used: the continuous law (43), or the
+  /// digital loop at the dataset's sample period (loop_period_s > 0).
+  SimulationOptions simulation;
   std::vector<RunValidation> validation;
   std::vector<std::string> notes;  ///< what could not be done, and why; choices made
   ModelErrors linear_errors, alpha_errors;  ///< medians over poses of the per-pose figures

@@ -8,7 +8,9 @@
 #include <thread>
 
 #include "alphainv/metrics.hpp"
+#include "alphainv/output_error.hpp"
 #include "alphainv/reference.hpp"
+#include "fit_pipeline_internal.hpp"
 
 namespace alphainv {
 
@@ -141,8 +143,12 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
                         "β_data) and were excluded, as the paper does");
   }
   if (fit.sine_points.empty()) {
-    fit.notes.push_back("no sine runs with freq_hz under a P law: no local or global linear model, "
-                        "no α-invariant model can be identified from this dataset");
+    fit.notes.push_back(options.time_domain
+                            ? "no sine runs with freq_hz under a P law: the local points (19)-(20) "
+                              "and the global fit (22) need them; the models are identified in the "
+                              "time domain instead"
+                            : "no sine runs with freq_hz under a P law: no local or global linear "
+                              "model, no α-invariant model can be identified from this dataset");
   }
 
   // --- global linear model (22) per pose, on a band around the resonance ------------------------
@@ -179,6 +185,7 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
     if (pose.linear.valid && (pose.linear.c_linear <= 0.0 || pose.linear.beta_linear <= 0.0)) {
       pose.linear.valid = false;
     }
+    if (pose.linear.valid) pose.linear_source = "sine (22)";
   }
 
   // --- inertia model (27)-(29) across poses -------------------------------------------------------
@@ -225,11 +232,36 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
     aopt.kp = fit.kp;
     aopt.n_breakpoints = options.n_breakpoints;
     fit.alpha = fit_alpha_model(apose, aopt);
+    if (fit.alpha.ok) fit.alpha_source = "sine (2.3.5)";
     if (!fit.alpha.ok) fit.notes.push_back("α-invariant model not fitted: " + fit.alpha.message);
     if (!fit.has_inertia_model && apose.size() > 1) {
       fit.notes.push_back("without an inertia model the α-model is one model for all poses (I = 1)");
     }
   }
+
+  // --- time domain: poses without sine runs (output error) --------------------------------------
+  if (options.time_domain && fit.sine_points.empty() && dataset.sample_rate_hz) {
+    // Without the paper's sine sweep, simulate as the digital loop when the runs are sampled
+    // uniformly at the nominal rate (a 1 kHz rig), else with the continuous law.
+    const double period = 1.0 / *dataset.sample_rate_hz;
+    bool uniform = true;
+    for (const RunData& d : data) {
+      for (std::size_t k = 1; k < d.size() && uniform; ++k) {
+        uniform = std::abs(d.t[k] - d.t[k - 1] - period) < 0.05 * period;
+      }
+    }
+    if (uniform) fit.simulation.loop_period_s = period;
+  }
+  if (options.time_domain && fit.sine_points.empty() && !(fit.simulation.loop_period_s > 0.0)) {
+    // Continuous law on slow, irregular samples: RK4 steps as long as the median sample interval
+    // (at least 1 ms): the references are interpolated from the samples anyway.
+    std::vector<double> dts;
+    for (const RunData& d : data) {
+      for (std::size_t k = 1; k < d.size(); ++k) dts.push_back(d.t[k] - d.t[k - 1]);
+    }
+    if (!dts.empty()) fit.simulation.max_step_s = std::max(1e-3, percentile(dts, 50.0));
+  }
+  if (options.time_domain) detail::add_time_domain_fit(dataset, data, options, fit);
 
   // --- validation: every run simulated with both models under its own controller ----------------
   if (options.validate) {
@@ -249,15 +281,19 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
           rv.message = "no linear model for this run's pose";
           continue;
         }
+        if (detail::has_torque_off(d)) {
+          rv.message = "torque_enable = 0 in part of the run (free fall): not simulated";
+          continue;
+        }
         const Controller ctl = to_controller(run.controller);
         const SampledReference ref(d.t, d.r);
-        const InitialState x0{d.theta.front(), 0.0, 0.0};
+        const InitialState x0 = initial_state_of(d);
         m.use_alpha = false;
-        const SimulationResult lin = simulate(m, ctl, ref, d.t, x0);
+        const SimulationResult lin = simulate(m, ctl, ref, d.t, x0, fit.simulation);
         SimulationResult alp;
         if (fit.alpha.ok) {
           m.use_alpha = true;
-          alp = simulate(m, ctl, ref, d.t, x0);
+          alp = simulate(m, ctl, ref, d.t, x0, fit.simulation);
         }
         if (!lin.ok) {
           rv.message = "linear simulation failed: " + lin.message;
@@ -331,6 +367,27 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
     }
     fit.linear_errors = median_over_poses(&PoseFit::linear_errors);
     fit.alpha_errors = median_over_poses(&PoseFit::alpha_errors);
+    // Median relative position error over all simulated runs, and a plain warning when the model
+    // class clearly misses something (more than 20 % of the motion unexplained).
+    auto rel_median = [&](RunErrors RunValidation::*model) {
+      std::vector<double> rel;
+      for (const RunValidation& v : fit.validation) {
+        if ((v.*model).simulated) rel.push_back((v.*model).rel_position_error);
+      }
+      return finite_median(rel);
+    };
+    fit.linear_errors.rel_position_error_median = rel_median(&RunValidation::linear);
+    fit.alpha_errors.rel_position_error_median = rel_median(&RunValidation::alpha);
+    const double best = fit.alpha.ok ? fit.alpha_errors.rel_position_error_median
+                                     : fit.linear_errors.rel_position_error_median;
+    if (best > 0.2) {
+      fit.notes.push_back(
+          "the fitted models do not describe these runs: the median relative position error of "
+          "the simulation is " + std::to_string(static_cast<int>(std::lround(100.0 * best))) +
+          " %, so a physical effect outside the model dominates (gravity, saturation, friction, "
+          "...); `omni_fit diagnose` tests the catalogue of effects and adds the one that explains "
+          "the gap");
+    }
   }
   return fit;
 }

@@ -1,0 +1,357 @@
+#include "alphainv/output_error.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <memory>
+#include <thread>
+
+#include <Eigen/Dense>
+#include <ceres/ceres.h>
+
+#include "alphainv/reference.hpp"
+
+namespace alphainv {
+
+namespace {
+
+unsigned thread_count(unsigned requested, std::size_t jobs) {
+  const unsigned hw = std::max(1u, std::thread::hardware_concurrency());
+  const unsigned n = requested ? requested : hw;
+  return std::max(1u, std::min<unsigned>(n, static_cast<unsigned>(std::max<std::size_t>(jobs, 1))));
+}
+
+/// Indices of the residual samples of a run: evenly spaced, at most `max_n`, never sample 0 (the
+/// initial state is taken from it).
+std::vector<std::size_t> residual_samples(std::size_t n, std::size_t max_n) {
+  std::vector<std::size_t> idx;
+  if (n < 2) return idx;
+  const std::size_t stride = std::max<std::size_t>(1, (n - 1 + max_n - 1) / std::max<std::size_t>(max_n, 1));
+  for (std::size_t k = 1; k < n; k += stride) idx.push_back(k);
+  return idx;
+}
+
+/// Finite-difference step of parameter j at value x: relative to its magnitude and its range.
+double fd_step(const OutputErrorParameter& par, double x) {
+  double scale = std::abs(x);
+  if (std::isfinite(par.lower) && std::isfinite(par.upper)) {
+    scale = std::max(scale, 1e-2 * (par.upper - par.lower));
+  }
+  scale = std::max(scale, std::abs(par.initial));
+  return 1e-5 * std::max(scale, 1e-9);
+}
+
+/// One run's residuals w·(θ_sim − θ) at its residual samples; Jacobian by central differences.
+class RunCost final : public ceres::CostFunction {
+ public:
+  /// `scale` divides every residual (so that the solver's absolute tolerances see a cost of order
+  /// one whatever the position unit).
+  RunCost(const OutputErrorProblem& problem, std::size_t run, std::atomic<long>& sims,
+          double scale, unsigned threads)
+      : problem_(problem), run_(run), sims_(sims), threads_(threads) {
+    idx_ = residual_samples(problem.runs[run].data->size(), problem.max_residuals_per_run);
+    sqrt_w_ = std::sqrt(problem.runs[run].weight / static_cast<double>(std::max<std::size_t>(idx_.size(), 1))) / scale;
+    set_num_residuals(static_cast<int>(idx_.size()));
+    mutable_parameter_block_sizes()->push_back(static_cast<int>(problem.parameters.size()));
+  }
+
+  bool Evaluate(double const* const* params, double* residuals, double** jacobians) const override {
+    const std::size_t np = problem_.parameters.size();
+    const std::vector<double> p(params[0], params[0] + np);
+    if (!residual_at(p.data(), residuals)) return false;
+    if (jacobians == nullptr || jacobians[0] == nullptr) return true;
+    // Central differences, the 2·P perturbed simulations spread over the threads.
+    const std::size_t m = idx_.size();
+    std::vector<std::vector<double>> plus(np, std::vector<double>(m)), minus(plus);
+    std::vector<double> step_hi(np), step_lo(np);
+    std::vector<char> ok(2 * np, 0);
+    std::atomic<std::size_t> next{0};
+    auto worker = [&] {
+      std::vector<double> q(p);
+      for (std::size_t job = next++; job < 2 * np; job = next++) {
+        const std::size_t j = job / 2;
+        const OutputErrorParameter& par = problem_.parameters[j];
+        const double x = p[j], h = fd_step(par, x);
+        step_hi[j] = std::min(x + h, par.upper);
+        step_lo[j] = std::max(x - h, par.lower);
+        q = p;
+        q[j] = job % 2 == 0 ? step_hi[j] : step_lo[j];
+        ok[job] = residual_at(q.data(), job % 2 == 0 ? plus[j].data() : minus[j].data());
+      }
+    };
+    const unsigned n_threads = thread_count(threads_, 2 * np);
+    std::vector<std::thread> pool;
+    for (unsigned k = 1; k < n_threads; ++k) pool.emplace_back(worker);
+    worker();
+    for (auto& t : pool) t.join();
+    for (std::size_t j = 0; j < np; ++j) {
+      const double dx = step_hi[j] - step_lo[j];
+      const bool good = ok[2 * j] && ok[2 * j + 1] && dx > 0.0;
+      for (std::size_t i = 0; i < m; ++i)
+        jacobians[0][i * np + j] = good ? (plus[j][i] - minus[j][i]) / dx : 0.0;
+    }
+    return true;
+  }
+
+  bool residual_at(const double* p, double* out) const {
+    ++sims_;
+    const SimulationResult sim = simulate_output_error_run(problem_, p, run_);
+    if (!sim.ok) return false;
+    const RunData& d = *problem_.runs[run_].data;
+    for (std::size_t i = 0; i < idx_.size(); ++i) {
+      const std::size_t k = idx_[i];
+      out[i] = sqrt_w_ * (sim.theta[k] - d.theta[k]);
+      if (!std::isfinite(out[i])) return false;
+    }
+    return true;
+  }
+
+  std::size_t residual_count() const { return idx_.size(); }
+
+ private:
+  const OutputErrorProblem& problem_;
+  std::size_t run_;
+  std::atomic<long>& sims_;
+  unsigned threads_ = 1;
+  std::vector<std::size_t> idx_;
+  double sqrt_w_ = 1.0;
+};
+
+std::string check_problem(const OutputErrorProblem& pr) {
+  if (pr.runs.empty()) return "no runs to fit";
+  if (!pr.model) return "no model function";
+  for (std::size_t i = 0; i < pr.runs.size(); ++i) {
+    if (pr.runs[i].data == nullptr || pr.runs[i].data->size() < 10)
+      return "run " + std::to_string(i) + " has fewer than 10 samples";
+  }
+  for (const auto& par : pr.parameters) {
+    if (!(par.lower <= par.initial && par.initial <= par.upper) || !std::isfinite(par.initial))
+      return "parameter " + par.name + ": initial value outside its bounds";
+  }
+  return {};
+}
+
+}  // namespace
+
+InitialState initial_state_of(const RunData& run) {
+  InitialState s;
+  if (run.size() == 0) return s;
+  s.theta = run.theta[0];
+  // θ̇(t0) from a least-squares quadratic through the first 10 ms (at least 4 samples): a line
+  // would take a run that starts at rest and accelerates for one already moving.
+  std::size_t m = 1;
+  while (m < run.size() && (run.t[m] - run.t[0] <= 10e-3 || m < 4)) ++m;
+  if (m < 3) return s;
+  Eigen::MatrixXd a(static_cast<Eigen::Index>(m), 3);
+  Eigen::VectorXd y(static_cast<Eigen::Index>(m));
+  const double span = run.t[m - 1] - run.t[0];
+  for (std::size_t k = 0; k < m; ++k) {
+    const double x = (run.t[k] - run.t[0]) / span;  // scaled to [0, 1] for conditioning
+    const auto i = static_cast<Eigen::Index>(k);
+    a(i, 0) = 1.0;
+    a(i, 1) = x;
+    a(i, 2) = x * x;
+    y(i) = run.theta[k];
+  }
+  const Eigen::Vector3d c = a.colPivHouseholderQr().solve(y);
+  if (std::isfinite(c(1)) && span > 0) s.theta_dot = c(1) / span;
+  return s;
+}
+
+SimulationResult simulate_output_error_run(const OutputErrorProblem& problem, const double* p,
+                                           std::size_t i) {
+  const OutputErrorRun& run = problem.runs[i];
+  const RunData& d = *run.data;
+  const SampledReference ref(d.t, d.r);
+  const JointModelAtPose model = problem.model(p, i);
+  return simulate(model, run.controller, ref, d.t, initial_state_of(d), problem.simulation);
+}
+
+std::vector<double> output_error_rms(const OutputErrorProblem& problem, const std::vector<double>& p,
+                                     unsigned threads) {
+  std::vector<double> out(problem.runs.size(), std::numeric_limits<double>::quiet_NaN());
+  std::atomic<std::size_t> next{0};
+  auto worker = [&] {
+    for (std::size_t i = next++; i < problem.runs.size(); i = next++) {
+      const SimulationResult sim = simulate_output_error_run(problem, p.data(), i);
+      if (!sim.ok) continue;
+      const RunData& d = *problem.runs[i].data;
+      double ss = 0.0;
+      for (std::size_t k = 0; k < d.size(); ++k) ss += (sim.theta[k] - d.theta[k]) * (sim.theta[k] - d.theta[k]);
+      out[i] = std::sqrt(ss / static_cast<double>(d.size()));
+    }
+  };
+  const unsigned n = thread_count(threads, problem.runs.size());
+  std::vector<std::thread> pool;
+  for (unsigned k = 1; k < n; ++k) pool.emplace_back(worker);
+  worker();
+  for (auto& t : pool) t.join();
+  return out;
+}
+
+OutputErrorResult fit_output_error(const OutputErrorProblem& problem,
+                                   const OutputErrorOptions& options) {
+  OutputErrorResult res;
+  const std::size_t np = problem.parameters.size();
+  if (std::string why = check_problem(problem); !why.empty()) {
+    res.message = why;
+    return res;
+  }
+  std::vector<std::vector<double>> starts;
+  {
+    std::vector<double> p0(np);
+    for (std::size_t j = 0; j < np; ++j) p0[j] = problem.parameters[j].initial;
+    starts.push_back(p0);
+  }
+  for (const auto& s : options.extra_starts) {
+    if (s.size() == np) starts.push_back(s);
+  }
+  std::atomic<long> sims{0};
+  // Residual scale: the RMS error at the first start (or the RMS of θ if that simulation fails).
+  double scale = 0.0;
+  {
+    const std::vector<double> rms0 = output_error_rms(problem, starts.front(), options.threads);
+    sims += static_cast<long>(problem.runs.size());
+    double ss = 0.0;
+    for (double x : rms0) ss += std::isfinite(x) ? x * x : 0.0;
+    scale = std::sqrt(ss / static_cast<double>(rms0.size()));
+    if (!(scale > 0.0) || !std::isfinite(scale)) {
+      double th = 0.0;
+      std::size_t cnt = 0;
+      for (const auto& r : problem.runs) {
+        for (double x : r.data->theta) th += x * x;
+        cnt += r.data->size();
+      }
+      scale = std::sqrt(th / static_cast<double>(std::max<std::size_t>(cnt, 1)));
+    }
+    if (!(scale > 0.0) || !std::isfinite(scale)) scale = 1.0;
+  }
+  double best_cost = std::numeric_limits<double>::infinity();
+  std::vector<double> best;
+  std::string best_report;
+  for (const auto& start : starts) {
+    std::vector<double> x = start;
+    for (std::size_t j = 0; j < np; ++j)
+      x[j] = std::clamp(x[j], problem.parameters[j].lower, problem.parameters[j].upper);
+    if (np == 0) {
+      best = x;
+      break;
+    }
+    ceres::Problem cp;
+    for (std::size_t i = 0; i < problem.runs.size(); ++i) {
+      cp.AddResidualBlock(new RunCost(problem, i, sims, scale, options.threads), nullptr, x.data());
+    }
+    for (std::size_t j = 0; j < np; ++j) {
+      const auto& par = problem.parameters[j];
+      if (std::isfinite(par.lower)) cp.SetParameterLowerBound(x.data(), static_cast<int>(j), par.lower);
+      if (std::isfinite(par.upper)) cp.SetParameterUpperBound(x.data(), static_cast<int>(j), par.upper);
+    }
+    ceres::Solver::Options so;
+    so.linear_solver_type = ceres::DENSE_QR;
+    so.max_num_iterations = options.max_iterations;
+    so.num_threads = 1;  // the Jacobian's simulations run in parallel inside RunCost
+    so.logging_type = ceres::SILENT;
+    so.function_tolerance = 1e-8;
+    so.parameter_tolerance = 1e-8;
+    ceres::Solver::Summary summary;
+    ceres::Solve(so, &cp, &summary);
+    res.iterations += static_cast<int>(summary.iterations.size());
+    if (summary.IsSolutionUsable() && summary.final_cost < best_cost) {
+      best_cost = summary.final_cost;
+      best = x;
+      best_report = summary.BriefReport();
+    }
+  }
+  if (best.empty()) {
+    res.message = "no start gave a usable solution (simulation failed for every start)";
+    res.simulations = sims;
+    return res;
+  }
+  res.values = best;
+  res.message = best_report;
+
+  // Standard errors from the stacked Jacobian at the solution: cov = σ² (JᵀJ)⁻¹.
+  res.standard_errors.assign(np, std::numeric_limits<double>::quiet_NaN());
+  if (np > 0) {
+    std::vector<std::unique_ptr<RunCost>> costs;
+    std::size_t m = 0;
+    for (std::size_t i = 0; i < problem.runs.size(); ++i) {
+      costs.push_back(std::make_unique<RunCost>(problem, i, sims, scale, 1));
+      m += costs.back()->residual_count();
+    }
+    Eigen::MatrixXd jac(m, np);
+    std::vector<std::vector<double>> jr(costs.size()), rr(costs.size());
+    std::vector<char> ok(costs.size(), 0);
+    std::atomic<std::size_t> next{0};
+    auto worker = [&] {
+      for (std::size_t i = next++; i < costs.size(); i = next++) {
+        const std::size_t mi = costs[i]->residual_count();
+        jr[i].resize(mi * np);
+        rr[i].resize(mi);
+        const double* params[] = {best.data()};
+        double* jacs[] = {jr[i].data()};
+        ok[i] = costs[i]->Evaluate(params, rr[i].data(), jacs);
+      }
+    };
+    const unsigned n = thread_count(options.threads, costs.size());
+    std::vector<std::thread> pool;
+    for (unsigned k = 1; k < n; ++k) pool.emplace_back(worker);
+    worker();
+    for (auto& t : pool) t.join();
+    bool all_ok = std::all_of(ok.begin(), ok.end(), [](char c) { return c != 0; });
+    if (all_ok) {
+      std::size_t row = 0;
+      for (std::size_t i = 0; i < costs.size(); ++i) {
+        for (std::size_t a = 0; a < rr[i].size(); ++a, ++row) {
+          for (std::size_t j = 0; j < np; ++j)
+            jac(static_cast<Eigen::Index>(row), static_cast<Eigen::Index>(j)) = jr[i][a * np + j];
+        }
+      }
+      // Rows are r = s·e with s² = w_i/m_i (the per-run normalisation), e = θ_sim − θ with one
+      // variance σ² for all samples: cov = σ² A⁻¹ B A⁻¹, A = J_rᵀJ_r, B = Σ s² J_r,kᵀJ_r,k
+      // (the sandwich form; it reduces to σ²(JᵀJ)⁻¹ for equal weights). Serially correlated
+      // residuals make these standard errors optimistic: read them as lower bounds.
+      Eigen::VectorXd s2(static_cast<Eigen::Index>(m));
+      double raw_ss = 0.0;
+      {
+        std::size_t row2 = 0;
+        for (std::size_t i = 0; i < costs.size(); ++i) {
+          const double w = problem.runs[i].weight /
+                           static_cast<double>(std::max<std::size_t>(rr[i].size(), 1)) /
+                           (scale * scale);
+          for (double e : rr[i]) {
+            s2(static_cast<Eigen::Index>(row2++)) = w;
+            raw_ss += e * e / w;
+          }
+        }
+      }
+      const double dof = static_cast<double>(m) - static_cast<double>(np);
+      const Eigen::MatrixXd a_mat = jac.transpose() * jac;
+      const Eigen::MatrixXd b_mat = jac.transpose() * s2.asDiagonal() * jac;
+      Eigen::JacobiSVD<Eigen::MatrixXd> svd(a_mat, Eigen::ComputeFullU | Eigen::ComputeFullV);
+      const auto& sv = svd.singularValues();
+      if (dof > 0 && sv(0) > 0 && sv(sv.size() - 1) > 1e-12 * sv(0)) {
+        const auto npi = static_cast<Eigen::Index>(np);
+        const Eigen::MatrixXd a_inv = svd.solve(Eigen::MatrixXd::Identity(npi, npi));
+        const Eigen::MatrixXd cov = (raw_ss / dof) * a_inv * b_mat * a_inv;
+        for (Eigen::Index j = 0; j < npi; ++j)
+          res.standard_errors[static_cast<std::size_t>(j)] = std::sqrt(std::max(0.0, cov(j, j)));
+      }
+    }
+  }
+  res.run_rms = output_error_rms(problem, best, options.threads);
+  double ss = 0.0, wsum = 0.0;
+  bool all = true;
+  for (std::size_t i = 0; i < res.run_rms.size(); ++i) {
+    if (!std::isfinite(res.run_rms[i])) all = false;
+    ss += problem.runs[i].weight * res.run_rms[i] * res.run_rms[i];
+    wsum += problem.runs[i].weight;
+  }
+  res.rms = all && wsum > 0 ? std::sqrt(ss / wsum) : std::numeric_limits<double>::quiet_NaN();
+  res.simulations = sims;
+  res.ok = all;
+  if (!all) res.message = "the simulation of a run failed at the solution";
+  return res;
+}
+
+}  // namespace alphainv

@@ -1,0 +1,222 @@
+#include "alphainv/time_domain_fit.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Dense>
+
+#include "alphainv/output_error.hpp"
+
+namespace alphainv {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+/// The output-error problem of `runs` with the model built by `model`.
+OutputErrorProblem make_problem(const std::vector<TimeDomainRun>& runs,
+                                const TimeDomainFitOptions& options) {
+  OutputErrorProblem pr;
+  for (const auto& r : runs) pr.runs.push_back({r.data, r.controller, 1.0});
+  pr.simulation = options.simulation;
+  pr.max_residuals_per_run = options.max_residuals_per_run;
+  return pr;
+}
+
+/// Breakpoint quantile levels for N breakpoints: α0 = 0, then levels from 0.5 to 0.95 spaced
+/// geometrically in 1 − level (more resolution where α is large and sparse).
+std::vector<double> quantile_levels(std::size_t n) {
+  std::vector<double> lv;
+  if (n < 2) return lv;
+  if (n == 2) return {0.9};
+  for (std::size_t k = 0; k + 1 < n; ++k) {
+    const double x = static_cast<double>(k) / static_cast<double>(n - 2);
+    lv.push_back(1.0 - 0.5 * std::pow(0.1, x));
+  }
+  return lv;
+}
+
+}  // namespace
+
+void local_quadratic_derivatives(const std::vector<double>& t, const std::vector<double>& y,
+                                 double half_window_s, std::vector<double>& dy,
+                                 std::vector<double>& ddy) {
+  const std::size_t n = std::min(t.size(), y.size());
+  dy.assign(n, 0.0);
+  ddy.assign(n, 0.0);
+  if (n < 3) return;
+  std::size_t lo = 0, hi = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    while (lo < k && t[k] - t[lo] > half_window_s && k - lo > 2) ++lo;
+    if (hi < k) hi = k;
+    while (hi + 1 < n && (t[hi + 1] - t[k] <= half_window_s || hi - k < 2)) ++hi;
+    // Normal equations of y ≈ a + b·x + c·x², x = (t − t_k)/s scaled for conditioning.
+    const double s = std::max(t[hi] - t[lo], 1e-12);
+    Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d aty = Eigen::Vector3d::Zero();
+    for (std::size_t j = lo; j <= hi; ++j) {
+      const double x = (t[j] - t[k]) / s;
+      const Eigen::Vector3d row(1.0, x, x * x);
+      ata += row * row.transpose();
+      aty += row * y[j];
+    }
+    const Eigen::Vector3d c = ata.ldlt().solve(aty);
+    dy[k] = c(1) / s;
+    ddy[k] = 2.0 * c(2) / (s * s);
+  }
+}
+
+std::vector<double> alpha_of_command(const std::vector<double>& t, const std::vector<double>& v,
+                                     double half_window_s) {
+  std::vector<double> dv, ddv;
+  local_quadratic_derivatives(t, v, half_window_s, dv, ddv);
+  std::vector<double> a(dv.size());
+  for (std::size_t k = 0; k < a.size(); ++k) a[k] = dv[k] * dv[k] - v[k] * ddv[k];  // eq. (33)
+  return a;
+}
+
+TimeDomainLinearFit fit_linear_time_domain(const std::vector<TimeDomainRun>& runs,
+                                           const TimeDomainFitOptions& options) {
+  TimeDomainLinearFit out;
+  if (runs.empty()) {
+    out.message = "no runs";
+    return out;
+  }
+  // Stage 1: θ̈ = −C·θ̇ + β̃·u, u = v through the known effects (inverse dynamics, least squares).
+  Eigen::Matrix2d ata = Eigen::Matrix2d::Zero();
+  Eigen::Vector2d aty = Eigen::Vector2d::Zero();
+  std::size_t used = 0;
+  for (const auto& run : runs) {
+    const RunData& d = *run.data;
+    std::vector<double> dth, ddth;
+    local_quadratic_derivatives(d.t, d.theta, options.smoothing_window_s, dth, ddth);
+    for (std::size_t k = 0; k < d.size(); ++k) {
+      const double u = amplifier(options.effects, d.v[k]) +
+                       effect_torque(options.effects, d.theta[k], dth[k]);
+      const Eigen::Vector2d row(-dth[k], u);
+      if (!row.allFinite() || !std::isfinite(ddth[k])) continue;
+      ata += row * row.transpose();
+      aty += row * ddth[k];
+      ++used;
+    }
+  }
+  const Eigen::Vector2d x = ata.ldlt().solve(aty);
+  out.c_equation_error = x(0);
+  out.beta_tilde_equation_error = x(1);
+  if (used < 10 || !x.allFinite() || !(x(1) > 0.0)) {
+    out.message = "the equation-error start failed (β̃ = " + std::to_string(x(1)) +
+                  "): the runs do not excite the joint";
+    return out;
+  }
+  // A negative C from noisy derivatives: start from a light damping instead.
+  const double c0 = x(0) > 0.0 ? x(0) : 0.1 * std::sqrt(x(1));
+  const double b0 = x(1);
+
+  // Stage 2: output error on C, β̃.
+  OutputErrorProblem pr = make_problem(runs, options);
+  pr.parameters = {{"c_linear", c0, c0 / 100.0, c0 * 100.0},
+                   {"beta_tilde_linear", b0, b0 / 100.0, b0 * 100.0}};
+  const Effects fx = options.effects;
+  pr.model = [fx](const double* p, std::size_t) {
+    JointModelAtPose m;
+    m.use_alpha = false;
+    m.c_linear = p[0];
+    m.beta_tilde_linear = p[1];
+    m.effects = fx;
+    return m;
+  };
+  OutputErrorOptions oo;
+  oo.threads = options.threads;
+  oo.extra_starts = {{c0 * 3.0, b0}, {c0 / 3.0, b0}};
+  const OutputErrorResult r = fit_output_error(pr, oo);
+  if (!r.ok) {
+    out.message = "output error fit failed: " + r.message;
+    return out;
+  }
+  out.c_linear = r.values[0];
+  out.beta_tilde_linear = r.values[1];
+  out.c_se = r.standard_errors[0];
+  out.beta_tilde_se = r.standard_errors[1];
+  out.rms = r.rms;
+  out.ok = true;
+  out.message = r.message;
+  return out;
+}
+
+TimeDomainAlphaFit fit_alpha_time_domain(const std::vector<TimeDomainRun>& runs,
+                                         const TimeDomainLinearFit& start,
+                                         const TimeDomainFitOptions& options) {
+  TimeDomainAlphaFit out;
+  const std::size_t n = options.n_breakpoints;
+  if (!start.ok) {
+    out.message = "no linear model to start from";
+    return out;
+  }
+  if (n < 2 || n > kMaxBreakpoints) {
+    out.message = "n_breakpoints must be 2.." + std::to_string(kMaxBreakpoints);
+    return out;
+  }
+  // Breakpoints at quantiles of the positive α of the commands.
+  std::vector<double> alphas;
+  for (const auto& run : runs) {
+    const auto a = alpha_of_command(run.data->t, run.data->v, options.smoothing_window_s);
+    for (double x : a) {
+      if (x > 0.0 && std::isfinite(x)) alphas.push_back(x);
+    }
+  }
+  if (alphas.size() < 10 * n) {
+    out.message = "too few samples with α > 0 to place breakpoints";
+    return out;
+  }
+  std::sort(alphas.begin(), alphas.end());
+  out.alpha_max = alphas.back();
+  AlphaModel model;
+  model.n_breakpoints = n;
+  model.alpha[0] = 0.0;
+  const std::vector<double> levels = quantile_levels(n);
+  for (std::size_t k = 1; k < n; ++k) {
+    const auto idx = static_cast<std::size_t>(levels[k - 1] * static_cast<double>(alphas.size() - 1));
+    model.alpha[k] = std::max(alphas[idx], model.alpha[k - 1] * 1.01 + 1e-12);
+  }
+  model.beta_alpha = {0.0, model.alpha[n - 1]};
+
+  OutputErrorProblem pr = make_problem(runs, options);
+  const double c0 = start.c_linear, b0 = start.beta_tilde_linear;
+  for (std::size_t k = 0; k < n; ++k)
+    pr.parameters.push_back({"C_" + std::to_string(k), c0, c0 / 50.0, c0 * 50.0});
+  pr.parameters.push_back({"beta_tilde_0", b0, b0 / 50.0, b0 * 50.0});
+  pr.parameters.push_back({"beta_tilde_1", b0, b0 / 50.0, b0 * 50.0});
+  const Effects fx = options.effects;
+  pr.model = [model, n, fx](const double* p, std::size_t) {
+    JointModelAtPose m;
+    m.use_alpha = true;
+    m.inertia = 1.0;
+    m.alpha = model;
+    for (std::size_t k = 0; k < n; ++k) m.alpha.c_n1[k] = 1.0 / p[k];  // eq. (40) with I = 1
+    m.alpha.beta_n1 = {1.0 / p[n], 1.0 / p[n + 1]};                   // eq. (42) with I = 1
+    m.c_linear = p[0];                 // start of the fixed point (45)
+    m.beta_tilde_linear = p[n];
+    m.effects = fx;
+    return m;
+  };
+  OutputErrorOptions oo;
+  oo.threads = options.threads;
+  const OutputErrorResult r = fit_output_error(pr, oo);
+  if (!r.ok) {
+    out.message = "output error fit failed: " + r.message;
+    return out;
+  }
+  out.model = model;
+  for (std::size_t k = 0; k < n; ++k) {
+    out.model.c_n1[k] = 1.0 / r.values[k];
+    out.c_se[k] = r.standard_errors[k];
+  }
+  out.model.beta_n1 = {1.0 / r.values[n], 1.0 / r.values[n + 1]};
+  out.beta_tilde_se = {r.standard_errors[n], r.standard_errors[n + 1]};
+  out.rms = r.rms;
+  out.ok = out.model.valid();
+  out.message = out.ok ? r.message : "the fitted α-model is not valid";
+  return out;
+}
+
+}  // namespace alphainv
