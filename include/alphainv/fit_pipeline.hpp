@@ -7,9 +7,11 @@
 /// `notes` and leaves the affected parts empty. Throws alphainv::Error only for unreadable input.
 
 #include <cstddef>
+#include <functional>
 #include <limits>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "alphainv/alpha_fit.hpp"
@@ -31,6 +33,10 @@ struct FitPipelineOptions {
   std::size_t n_breakpoints = 4;  ///< N of the α-model
   unsigned threads = 0;           ///< validation simulations in parallel; 0: all cores
   bool validate = true;           ///< simulate every run with both models
+  /// Progress of the stages ("local fits", "inertia fit", "alpha breakpoint search",
+  /// "validation simulations"): items done of total. Calls never overlap (a mutex serialises
+  /// them) but may come from a validation worker thread. Empty: no calls.
+  std::function<void(std::string_view stage, std::size_t done, std::size_t total)> progress;
 };
 
 /// One sine run's local identification.
