@@ -1,18 +1,17 @@
 // Tests of omni_fit's report figures (apps/omni_fit/plots.hpp): the .dat files carry the fit's
 // numbers, figures the data cannot support are skipped with a reason, a missing or failing gnuplot
 // leaves data and scripts but no PNG, and with gnuplot every PNG is complete.
-#include "plots.hpp"
+#include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
 
-#include <gtest/gtest.h>
-
 #include "alphainv/fit_pipeline.hpp"
 #include "alphainv/inertia_model.hpp"
 #include "alphainv/reference.hpp"
+#include "plots.hpp"
 
 namespace omni_fit {
 namespace {
@@ -22,8 +21,9 @@ namespace fs = std::filesystem;
 
 /// Runs made by the paper's α-model itself at `poses`: sines at `freqs` and, with `square`, one
 /// 0.25 Hz square run per pose (as tests/test_fit_pipeline.cpp, shorter runs).
-void make_dataset(const std::vector<std::pair<double, double>>& poses, const std::vector<double>& freqs,
-                  bool square, Dataset& ds, std::vector<RunData>& data) {
+void make_dataset(const std::vector<std::pair<double, double>>& poses,
+                  const std::vector<double>& freqs, bool square, Dataset& ds,
+                  std::vector<RunData>& data) {
   const LinearModel lin = paper_linear_model();
   ds.controller.kp = 2.0;
   ds.position_unit = "rad";
@@ -110,7 +110,11 @@ const Figure* find(const PlotSummary& s, const std::string& id) {
 class PlotsTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    make_dataset({{21.54, 69.54}, {19.31, 112.44}, {40.68, 68.52}, {39.83, 87.63}, {60.08, 87.00},
+    make_dataset({{21.54, 69.54},
+                  {19.31, 112.44},
+                  {40.68, 68.52},
+                  {39.83, 87.63},
+                  {60.08, 87.00},
                   {59.56, 111.45}},
                  {1.5, 2.5, 3.5, 5.0, 7.0}, true, ds_, data_);
     fit_ = fit_dataset(ds_, data_);
@@ -131,10 +135,10 @@ TEST_F(PlotsTest, DataFilesCarryTheFitsNumbers) {
   opt.run_gnuplot = false;
   const PlotSummary s = write_plots(ds_, data_, fit_, opt);
   EXPECT_EQ(s.gnuplot_problem, "drawing was not asked for");
-  for (const char* id : {"fig04_c_linear_inertia", "fig05_beta_linear_inertia", "fig06_c_alpha_inertia",
-                         "fig07_beta_alpha_inertia", "fig08_alpha_frequency", "fig09_c_alpha",
-                         "fig10_beta_alpha", "fig11_bode_pose1", "fig11_bode_pose6", "fig13_time_sine",
-                         "fig14_time_step"}) {
+  for (const char* id :
+       {"fig04_c_linear_inertia", "fig05_beta_linear_inertia", "fig06_c_alpha_inertia",
+        "fig07_beta_alpha_inertia", "fig08_alpha_frequency", "fig09_c_alpha", "fig10_beta_alpha",
+        "fig11_bode_pose1", "fig11_bode_pose6", "fig13_time_sine", "fig14_time_step"}) {
     EXPECT_NE(find(s, id), nullptr) << id;
     EXPECT_TRUE(fs::exists(opt.out_dir / "plots" / (std::string(id) + ".gp"))) << id;
   }
@@ -158,9 +162,11 @@ TEST_F(PlotsTest, DataFilesCarryTheFitsNumbers) {
     EXPECT_NEAR(bode[k][1], sp.gain, 1e-9 * sp.gain);
     EXPECT_NEAR(std::remainder(bode[k][2] - sp.phase_deg, 360.0), 0.0, 1e-7);
     EXPECT_NEAR(bode[k][3], v.linear.fundamental.gain_simulated, 1e-9);
-    EXPECT_NEAR(std::remainder(bode[k][4] - v.linear.fundamental.phase_simulated_deg, 360.0), 0.0, 1e-7);
+    EXPECT_NEAR(std::remainder(bode[k][4] - v.linear.fundamental.phase_simulated_deg, 360.0), 0.0,
+                1e-7);
     EXPECT_NEAR(bode[k][5], v.alpha.fundamental.gain_simulated, 1e-9);
-    EXPECT_NEAR(std::remainder(bode[k][6] - v.alpha.fundamental.phase_simulated_deg, 360.0), 0.0, 1e-7);
+    EXPECT_NEAR(std::remainder(bode[k][6] - v.alpha.fundamental.phase_simulated_deg, 360.0), 0.0,
+                1e-7);
     // Phases are unwrapped: a lagging plant, 0 … −180° through resonance.
     EXPECT_LT(bode[k][2], 5.0);
     EXPECT_GT(bode[k][2], -185.0);
@@ -252,7 +258,8 @@ TEST_F(PlotsTest, GnuplotFailingLeavesNoPng) {
   opt.out_dir = fresh_dir("failing");
   opt.gnuplot = "false";  // runs, exits 1, writes nothing
   const PlotSummary s = write_plots(ds_, data_, fit_, opt);
-  EXPECT_NE(s.gnuplot_problem.find("failed on every figure"), std::string::npos) << s.gnuplot_problem;
+  EXPECT_NE(s.gnuplot_problem.find("failed on every figure"), std::string::npos)
+      << s.gnuplot_problem;
   for (const auto& e : fs::directory_iterator(opt.out_dir / "plots")) {
     const std::string ext = e.path().extension().string();
     EXPECT_TRUE(ext == ".dat" || ext == ".gp" || ext == ".log") << e.path();
@@ -307,7 +314,8 @@ TEST(Plots, FiguresWithoutDataAreSkippedWithAReason) {
   EXPECT_TRUE(has(s.skipped, "Fig 8 (α against frequency): no sine runs"));
   EXPECT_TRUE(has(s.skipped, "Figs 11-12 (Bode): no sine runs"));
   EXPECT_TRUE(has(s.skipped, "Figs 4-7"));
-  EXPECT_TRUE(has(s.skipped, "Fig 14 (step response): no square or step run at a pose with a fitted model"));
+  EXPECT_TRUE(has(s.skipped,
+                  "Fig 14 (step response): no square or step run at a pose with a fitted model"));
   EXPECT_NE(s.markdown().find("Figures the data cannot support"), std::string::npos);
 
   // Sines only at one pose: Bode, α figures and the sine overlay; no step figure, no inertia.
@@ -335,7 +343,8 @@ TEST(Plots, FiguresWithoutDataAreSkippedWithAReason) {
   ASSERT_FALSE(sine.empty());
   EXPECT_NEAR(sine.back()[0], 6.0, 1e-9);
   EXPECT_NEAR(sine.back()[0] - sine.front()[0], 3.0 / f_shown, 2e-3);
-  for (const auto& row : sine) EXPECT_NEAR(row[1], 0.07 * std::sin(2 * kPi * f_shown * row[0]), 1e-9);
+  for (const auto& row : sine)
+    EXPECT_NEAR(row[1], 0.07 * std::sin(2 * kPi * f_shown * row[0]), 1e-9);
 }
 
 }  // namespace

@@ -67,7 +67,8 @@ void write_file(const fs::path& path, const std::string& text) {
   }
   std::error_code ec;
   fs::rename(tmp, path, ec);
-  if (ec) throw Error("cannot rename to " + path.filename().string() + ": " + ec.message(), tmp.string());
+  if (ec)
+    throw Error("cannot rename to " + path.filename().string() + ": " + ec.message(), tmp.string());
 }
 
 /// Unit strings of a dataset, in gnuplot's enhanced-text syntax (labels) and in Markdown.
@@ -154,7 +155,8 @@ const int kSeriesPoints[4] = {7, 5, 9, 13};
 /// Columns × rows of a multiplot with n panels.
 std::pair<int, int> grid_of(std::size_t n) {
   const int cols = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(n))));
-  const int rows = static_cast<int>((n + static_cast<std::size_t>(cols) - 1) / static_cast<std::size_t>(cols));
+  const int rows =
+      static_cast<int>((n + static_cast<std::size_t>(cols) - 1) / static_cast<std::size_t>(cols));
   return {cols, rows};
 }
 
@@ -196,15 +198,17 @@ class Plotter {
     for (const auto& sp : fit_.sine_points) {
       if (sp.pose == p) v.push_back(&sp);
     }
-    std::sort(v.begin(), v.end(), [](auto* a, auto* b) { return a->point.freq_hz < b->point.freq_hz; });
+    std::sort(v.begin(), v.end(),
+              [](auto* a, auto* b) { return a->point.freq_hz < b->point.freq_hz; });
     return v;
   }
 
   // --- Figs 4-7: C and β̃ against the inertia, linear and α-model ---------------------------------
   void inertia_figures() {
     if (!fit_.has_inertia_model) {
-      skipped.push_back("Figs 4-7 (C and β̃ against inertia): no inertia model was fitted (see the "
-                        "notes above)");
+      skipped.push_back(
+          "Figs 4-7 (C and β̃ against inertia): no inertia model was fitted (see the "
+          "notes above)");
       return;
     }
     const LinearModel& lin = fit_.inertia.model;
@@ -223,8 +227,9 @@ class Plotter {
 
     {  // Fig 4 and 5: the global linear fits (22) per pose against the inertia model (28)-(29)
       std::ostringstream d;
-      d << "# index 0: one row per pose: I [" << u_.inertia() << "]  C_linear [1/s]  beta_tilde_linear ["
-        << u_.beta_tilde() << "]  gamma1 [deg]  gamma2 [deg]\n";
+      d << "# index 0: one row per pose: I [" << u_.inertia()
+        << "]  C_linear [1/s]  beta_tilde_linear [" << u_.beta_tilde()
+        << "]  gamma1 [deg]  gamma2 [deg]\n";
       for (std::size_t p : ps) {
         const PoseFit& pose = fit_.poses[p];
         d << num(pose.inertia) << " " << num(pose.linear.c_linear) << " "
@@ -232,24 +237,33 @@ class Plotter {
           << num(*pose.gamma2_deg) << "\n";
       }
       d << "\n\n# index 1: inertia model: I  C = 1/(C0_bar I) (29)  beta_tilde = 1/I (28)\n";
-      for (double i : grid) d << num(i) << " " << num(lin.damping(i)) << " " << num(lin.beta_tilde(i)) << "\n";
+      for (double i : grid)
+        d << num(i) << " " << num(lin.damping(i)) << " " << num(lin.beta_tilde(i)) << "\n";
       const std::string c0 = fixed(lin.c0_bar, "%.4g");
-      Draft f4{"fig04_c_linear_inertia",
-               "Fig 4: global linear damping C_linear (eq. 22) per pose against the pose's inertia, "
-               "with the inertia model C = 1/(C̄0·I), C̄0 = " + c0 + " (eq. 29)",
-               d.str(), ""};
-      f4.gp = preamble(f4.id, f4.caption, 800, 560) + kStyles + xlabel +
-              "set ylabel 'C [1/s]'\nset title 'C_{linear} against inertia'\nset key top right\n"
-              "plot '" + f4.id + ".dat' index 1 using 1:2 with lines ls 2 title 'model 1/(C̄_0 I), C̄_0 = " +
-              c0 + "', \\\n     '' index 0 using 1:2 with points ls 1 title 'C_{linear} per pose (22)'\n";
+      Draft f4{
+          "fig04_c_linear_inertia",
+          "Fig 4: global linear damping C_linear (eq. 22) per pose against the pose's inertia, "
+          "with the inertia model C = 1/(C̄0·I), C̄0 = " +
+              c0 + " (eq. 29)",
+          d.str(), ""};
+      f4.gp =
+          preamble(f4.id, f4.caption, 800, 560) + kStyles + xlabel +
+          "set ylabel 'C [1/s]'\nset title 'C_{linear} against inertia'\nset key top right\n"
+          "plot '" +
+          f4.id + ".dat' index 1 using 1:2 with lines ls 2 title 'model 1/(C̄_0 I), C̄_0 = " + c0 +
+          "', \\\n     '' index 0 using 1:2 with points ls 1 title 'C_{linear} per pose (22)'\n";
       drafts.push_back(f4);
-      Draft f5{"fig05_beta_linear_inertia",
-               "Fig 5: global linear β̃_linear (eq. 22) per pose against the pose's inertia, with the "
-               "inertia model β̃ = 1/I (eq. 28)",
-               d.str(), ""};
+      Draft f5{
+          "fig05_beta_linear_inertia",
+          "Fig 5: global linear β̃_linear (eq. 22) per pose against the pose's inertia, with the "
+          "inertia model β̃ = 1/I (eq. 28)",
+          d.str(), ""};
       f5.gp = preamble(f5.id, f5.caption, 800, 560) + kStyles + xlabel + "set ylabel 'β̃ [" +
-              u_.beta_tilde() + "]'\nset title 'β̃_{linear} against inertia'\nset key top right\n"
-              "plot '" + f5.id + ".dat' index 1 using 1:3 with lines ls 2 title 'model 1/I', \\\n"
+              u_.beta_tilde() +
+              "]'\nset title 'β̃_{linear} against inertia'\nset key top right\n"
+              "plot '" +
+              f5.id +
+              ".dat' index 1 using 1:3 with lines ls 2 title 'model 1/I', \\\n"
               "     '' index 0 using 1:3 with points ls 1 title 'β̃_{linear} per pose (22)'\n";
       drafts.push_back(f5);
     }
@@ -265,8 +279,9 @@ class Plotter {
     }
     if (stage1_pose.size() != fit_.alpha.pose_c.size() ||
         stage1_pose.size() != fit_.alpha.pose_beta_tilde.size()) {
-      skipped.push_back("Figs 6-7 (α-model against inertia): the per-pose stage-1 values do not "
-                        "match the poses");
+      skipped.push_back(
+          "Figs 6-7 (α-model against inertia): the per-pose stage-1 values do not "
+          "match the poses");
       return;
     }
     const AlphaModel& a = fit_.alpha.model;
@@ -278,7 +293,8 @@ class Plotter {
     for (std::size_t j = 0; j < stage1_pose.size(); ++j) {
       d << num(fit_.poses[stage1_pose[j]].inertia);
       for (std::size_t k = 0; k < n; ++k) d << " " << num(fit_.alpha.pose_c[j][k]);
-      d << " " << num(fit_.alpha.pose_beta_tilde[j][0]) << " " << num(fit_.alpha.pose_beta_tilde[j][1]) << "\n";
+      d << " " << num(fit_.alpha.pose_beta_tilde[j][0]) << " "
+        << num(fit_.alpha.pose_beta_tilde[j][1]) << "\n";
     }
     d << "\n\n# index 1: models: I";
     for (std::size_t k = 0; k < n; ++k) d << "  1/(C_" << k << "1 I)";
@@ -289,10 +305,12 @@ class Plotter {
       d << " " << num(1.0 / (a.beta_n1[0] * i)) << " " << num(1.0 / (a.beta_n1[1] * i)) << " "
         << num(lin.damping(i)) << " " << num(lin.beta_tilde(i)) << "\n";
     }
-    const char* colours[] = {"#cc2222", "#e07b00", "#2a9d2a", "#7b3fb5", "#008b8b", "#b5007b", "#666600", "#444444"};
+    const char* colours[] = {"#cc2222", "#e07b00", "#2a9d2a", "#7b3fb5",
+                             "#008b8b", "#b5007b", "#666600", "#444444"};
     {
       Draft f{"fig06_c_alpha_inertia",
-              "Fig 6: α-model damping C_n = 1/(C_n1·I) at each breakpoint α_n (eq. 40) against inertia, "
+              "Fig 6: α-model damping C_n = 1/(C_n1·I) at each breakpoint α_n (eq. 40) against "
+              "inertia, "
               "with the per-pose stage-1 values and the global linear model for comparison",
               d.str(), ""};
       std::ostringstream g;
@@ -302,9 +320,9 @@ class Plotter {
       for (std::size_t k = 0; k < n; ++k) {
         const std::string c = colours[k % 8];
         g << "'" << f.id << ".dat' index 1 using 1:" << k + 2 << " with lines lc rgb '" << c
-          << "' lw 1.5 title 'C_" << k << ", α_" << k << " = " << fixed(a.alpha[k], "%.3g")
-          << " " << u_.alpha() << "', \\\n     '' index 0 using 1:" << k + 2
-          << " with points lc rgb '" << c << "' pt 7 ps 0.8 notitle, \\\n     ";
+          << "' lw 1.5 title 'C_" << k << ", α_" << k << " = " << fixed(a.alpha[k], "%.3g") << " "
+          << u_.alpha() << "', \\\n     '' index 0 using 1:" << k + 2 << " with points lc rgb '"
+          << c << "' pt 7 ps 0.8 notitle, \\\n     ";
       }
       g << "'' index 1 using 1:" << n + 4 << " with lines ls 2 title 'linear 1/(C̄_0 I)'\n";
       f.gp = g.str();
@@ -312,18 +330,20 @@ class Plotter {
     }
     {
       Draft f{"fig07_beta_alpha_inertia",
-              "Fig 7: α-model β̃_n = 1/(β̃_n1·I) at ᾱ0 and ᾱ1 (eq. 42) against inertia, with the per-pose "
+              "Fig 7: α-model β̃_n = 1/(β̃_n1·I) at ᾱ0 and ᾱ1 (eq. 42) against inertia, with the "
+              "per-pose "
               "stage-1 values and the global linear model 1/I for comparison",
               d.str(), ""};
       std::ostringstream g;
       g << preamble(f.id, f.caption, 800, 600) << kStyles << xlabel << "set ylabel 'β̃ ["
-        << u_.beta_tilde() << "]'\nset title 'α-model β̃ against inertia'\nset key outside right top\nplot ";
+        << u_.beta_tilde()
+        << "]'\nset title 'α-model β̃ against inertia'\nset key outside right top\nplot ";
       for (std::size_t k = 0; k < 2; ++k) {
         const std::string c = colours[k == 0 ? 0 : 3];
         g << "'" << f.id << ".dat' index 1 using 1:" << n + 2 + k << " with lines lc rgb '" << c
-          << "' lw 1.5 title 'β̃_" << k << ", ᾱ_" << k << " = " << fixed(a.beta_alpha[k], "%.3g") << " "
-          << u_.alpha() << "', \\\n     '' index 0 using 1:" << n + 2 + k << " with points lc rgb '" << c
-          << "' pt 7 ps 0.8 notitle, \\\n     ";
+          << "' lw 1.5 title 'β̃_" << k << ", ᾱ_" << k << " = " << fixed(a.beta_alpha[k], "%.3g")
+          << " " << u_.alpha() << "', \\\n     '' index 0 using 1:" << n + 2 + k
+          << " with points lc rgb '" << c << "' pt 7 ps 0.8 notitle, \\\n     ";
       }
       g << "'' index 1 using 1:" << n + 5 << " with lines ls 2 title 'linear 1/I'\n";
       f.gp = g.str();
@@ -331,21 +351,23 @@ class Plotter {
     }
   }
 
-  // --- Fig 8: α_data against frequency, one series per pose ---------------------------------------
+  // --- Fig 8: α_data against frequency, one series per pose
+  // ---------------------------------------
   void alpha_frequency() {
     if (fit_.sine_points.empty()) {
       skipped.push_back("Fig 8 (α against frequency): no sine runs");
       return;
     }
-    Draft f{"fig08_alpha_frequency",
-            "Fig 8: α-invariant of the sinusoidal steady state α_data (eq. 36) against frequency, one "
-            "series per pose",
-            "", ""};
+    Draft f{
+        "fig08_alpha_frequency",
+        "Fig 8: α-invariant of the sinusoidal steady state α_data (eq. 36) against frequency, one "
+        "series per pose",
+        "", ""};
     std::ostringstream d, g;
     g << preamble(f.id, f.caption, 900, 600)
       << "set autoscale xfix\nset offsets graph 0.03, graph 0.03, 0, 0\n"
-      << "set xlabel 'frequency [Hz]'\nset ylabel 'α_{data} ["
-      << u_.alpha() << "]'\nset logscale y\nset title 'α-invariant against frequency'\n"
+      << "set xlabel 'frequency [Hz]'\nset ylabel 'α_{data} [" << u_.alpha()
+      << "]'\nset logscale y\nset title 'α-invariant against frequency'\n"
       << "set key outside right top\nplot ";
     std::size_t block = 0;
     for (std::size_t p = 0; p < fit_.poses.size(); ++p) {
@@ -355,11 +377,13 @@ class Plotter {
       d << "# index " << block << ": " << pose_md(fit_.poses[p]) << ": freq [Hz]  alpha_data ["
         << u_.alpha() << "]  physical (1/0)\n";
       for (const auto* sp : pts) {
-        d << num(sp->point.freq_hz) << " " << num(sp->point.alpha_data) << " " << (sp->point.physical ? 1 : 0) << "\n";
+        d << num(sp->point.freq_hz) << " " << num(sp->point.alpha_data) << " "
+          << (sp->point.physical ? 1 : 0) << "\n";
       }
       g << (block > 0 ? ", \\\n     '' " : "'" + f.id + ".dat' ") << "index " << block
         << " using 1:($2 > 0 ? $2 : NaN) with linespoints lc rgb '" << kSeriesColours[block % 10]
-        << "' pt " << kSeriesPoints[(block / 10) % 4] << " ps 0.8 title " << gp_quote(pose_title(fit_.poses[p]));
+        << "' pt " << kSeriesPoints[(block / 10) % 4] << " ps 0.8 title "
+        << gp_quote(pose_title(fit_.poses[p]));
       ++block;
     }
     g << "\n";
@@ -410,7 +434,8 @@ class Plotter {
           << num(sp->point.beta_data / kp) << " " << num(sp->point.freq_hz) << "\n";
       }
       d << "\n\n# index " << block + 1 << ": " << pose_md(pose) << ", I = " << num(pose.inertia)
-        << ": alpha  C(alpha, I) (38-40)  beta_tilde(alpha, I) (41-42)  C_linear  beta_tilde_linear (22)\n";
+        << ": alpha  C(alpha, I) (38-40)  beta_tilde(alpha, I) (41-42)  C_linear  "
+           "beta_tilde_linear (22)\n";
       for (double a : grid) {
         d << num(a) << " "
           << (fit_.alpha.ok ? num(fit_.alpha.model.damping(a, pose.inertia)) : "NaN") << " "
@@ -421,30 +446,36 @@ class Plotter {
       block += 2;
     }
     const auto [cols, rows] = grid_of(ps.size());
-    const std::string note =
-        excluded > 0 ? " (" + std::to_string(excluded) + " non-physical point(s) not shown, as in the fit)" : "";
+    const std::string note = excluded > 0 ? " (" + std::to_string(excluded) +
+                                                " non-physical point(s) not shown, as in the fit)"
+                                          : "";
     for (int which = 0; which < 2; ++which) {
       const bool c = which == 0;
-      Draft f{c ? "fig09_c_alpha" : "fig10_beta_alpha",
-              c ? "Fig 9: damping C against α per pose: C_data (eq. 19) at each sine frequency, the "
-                  "α-model C(α, I) (eqs. 38-40) and the global linear C_linear (eq. 22)" + note
-                : "Fig 10: β̃ against α per pose: β_data/kp (eq. 20) at each sine frequency, the "
-                  "α-model β̃(α, I) (eqs. 41-42) and the global linear β̃_linear (eq. 22)" + note,
-              d.str(), ""};
+      Draft f{
+          c ? "fig09_c_alpha" : "fig10_beta_alpha",
+          c ? "Fig 9: damping C against α per pose: C_data (eq. 19) at each sine frequency, the "
+              "α-model C(α, I) (eqs. 38-40) and the global linear C_linear (eq. 22)" +
+                  note
+            : "Fig 10: β̃ against α per pose: β_data/kp (eq. 20) at each sine frequency, the "
+              "α-model β̃(α, I) (eqs. 41-42) and the global linear β̃_linear (eq. 22)" +
+                  note,
+          d.str(), ""};
       std::ostringstream g;
       g << preamble(f.id, f.caption, 420 * cols, 330 * rows + 40) << kStyles
         << "set logscale x\nset format x '10^{%L}'\nset key top right font ',8' samplen 1.5\n"
         << "set multiplot layout " << rows << "," << cols << " title "
-        << gp_quote(c ? "Damping C against α (log scale), per pose" : "β̃ against α (log scale), per pose") << "\n";
+        << gp_quote(c ? "Damping C against α (log scale), per pose"
+                      : "β̃ against α (log scale), per pose")
+        << "\n";
       for (std::size_t j = 0; j < ps.size(); ++j) {
         const int col = c ? 2 : 3;
         g << "set title " << gp_quote(pose_title(fit_.poses[ps[j]])) << "\n"
           << "set xlabel 'α [" << u_.alpha() << "]'\nset ylabel '"
           << (c ? "C [1/s]" : "β̃ [" + u_.beta_tilde() + "]") << "'\n"
           << "plot '" << f.id << ".dat' index " << 2 * j + 1 << " using 1:" << col + 2
-          << " with lines ls 2 title 'linear', \\\n     '' index " << 2 * j + 1 << " using 1:" << col
-          << " with lines ls 3 title 'α-model', \\\n     '' index " << 2 * j << " using 1:" << col
-          << " with points ls 1 title 'data'\n";
+          << " with lines ls 2 title 'linear', \\\n     '' index " << 2 * j + 1
+          << " using 1:" << col << " with lines ls 3 title 'α-model', \\\n     '' index " << 2 * j
+          << " using 1:" << col << " with points ls 1 title 'data'\n";
       }
       g << "unset multiplot\n";
       f.gp = g.str();
@@ -452,7 +483,8 @@ class Plotter {
     }
   }
 
-  // --- Figs 11-12: Bode magnitude and phase per pose ----------------------------------------------
+  // --- Figs 11-12: Bode magnitude and phase per pose
+  // ----------------------------------------------
   void bode() {
     if (fit_.sine_points.empty()) {
       skipped.push_back("Figs 11-12 (Bode): no sine runs");
@@ -467,7 +499,8 @@ class Plotter {
         f_hz.push_back(sp->point.freq_hz);
         gm.push_back(sp->gain);
         pm.push_back(sp->phase_deg);
-        const RunValidation* v = have_sim && sp->run < fit_.validation.size() ? &fit_.validation[sp->run] : nullptr;
+        const RunValidation* v =
+            have_sim && sp->run < fit_.validation.size() ? &fit_.validation[sp->run] : nullptr;
         auto sim = [&](const RunErrors* e, std::vector<double>& g, std::vector<double>& ph) {
           const bool ok = v && e->simulated && e->fundamental.valid;
           g.push_back(ok ? e->fundamental.gain_simulated : kNaN);
@@ -480,14 +513,17 @@ class Plotter {
       unwrap_deg(pl);
       unwrap_deg(pa);
       const PoseFit& pose = fit_.poses[p];
-      Draft f{"fig11_bode_pose" + std::to_string(p + 1),
-              "Figs 11-12, pose " + std::to_string(p + 1) + " (" + pose_md(pose) +
-                  "): fundamental gain |θ/r| and phase of θ relative to r against frequency, measured "
-                  "vs the linear and the α-model simulated under the run's controller",
-              "", ""};
+      Draft f{
+          "fig11_bode_pose" + std::to_string(p + 1),
+          "Figs 11-12, pose " + std::to_string(p + 1) + " (" + pose_md(pose) +
+              "): fundamental gain |θ/r| and phase of θ relative to r against frequency, measured "
+              "vs the linear and the α-model simulated under the run's controller",
+          "", ""};
       std::ostringstream d;
-      d << "# " << pose_md(pose) << ": freq [Hz]  gain_measured [1]  phase_measured [deg]  "
-           "gain_linear  phase_linear [deg]  gain_alpha  phase_alpha [deg]  (phases unwrapped along "
+      d << "# " << pose_md(pose)
+        << ": freq [Hz]  gain_measured [1]  phase_measured [deg]  "
+           "gain_linear  phase_linear [deg]  gain_alpha  phase_alpha [deg]  (phases unwrapped "
+           "along "
            "frequency; NaN: not simulated)\n";
       for (std::size_t k = 0; k < f_hz.size(); ++k) {
         d << num(f_hz[k]) << " " << num(gm[k]) << " " << num(pm[k]) << " " << num(gl[k]) << " "
@@ -495,15 +531,17 @@ class Plotter {
       }
       f.dat = d.str();
       std::ostringstream g;
-      g << preamble(f.id, f.caption, 800, 820) << kStyles
-        << "set multiplot layout 2,1 title " << gp_quote("Fundamental response, " + pose_title(pose)) << "\n"
+      g << preamble(f.id, f.caption, 800, 820) << kStyles << "set multiplot layout 2,1 title "
+        << gp_quote("Fundamental response, " + pose_title(pose)) << "\n"
         << "set key top right\nset xlabel 'frequency [Hz]'\n"
         << "set autoscale xfix\nset offsets graph 0.03, graph 0.03, graph 0.05, graph 0.05\n"
-        << "set title 'magnitude (Fig 11)'\nset ylabel '|θ/r| [" << u_.pos << "/" << u_.pos << "]'\n"
+        << "set title 'magnitude (Fig 11)'\nset ylabel '|θ/r| [" << u_.pos << "/" << u_.pos
+        << "]'\n"
         << "plot '" << f.id << ".dat' using 1:4 with linespoints ls 2 title 'linear model', \\\n"
         << "     '' using 1:6 with linespoints ls 3 title 'α-model', \\\n"
         << "     '' using 1:2 with points ls 1 title 'measured'\n"
-        << "set title 'phase (Fig 12)'\nset ylabel 'phase of θ relative to r [deg]'\nset key bottom left\n"
+        << "set title 'phase (Fig 12)'\nset ylabel 'phase of θ relative to r [deg]'\nset key "
+           "bottom left\n"
         << "plot '" << f.id << ".dat' using 1:5 with linespoints ls 2 title 'linear model', \\\n"
         << "     '' using 1:7 with linespoints ls 3 title 'α-model', \\\n"
         << "     '' using 1:3 with points ls 1 title 'measured'\n"
@@ -511,13 +549,15 @@ class Plotter {
       f.gp = g.str();
       drafts.push_back(f);
     }
-    if (!have_sim) skipped.push_back("Figs 11-12: the fit ran without validation; only measured points");
+    if (!have_sim)
+      skipped.push_back("Figs 11-12: the fit ran without validation; only measured points");
   }
 
   // --- Figs 13-14: time-domain overlays of one sine and one square/step run ----------------------
   /// Re-simulates run i with both models as fit_dataset()'s validation does. False when the pose
   /// has no linear model or the linear simulation fails.
-  bool simulate_run(std::size_t i, std::vector<double>& lin, std::vector<double>& alp, std::string& why) const {
+  bool simulate_run(std::size_t i, std::vector<double>& lin, std::vector<double>& alp,
+                    std::string& why) const {
     const RunData& d = data_[i];
     const auto it = run_pose_.find(i);
     if (it == run_pose_.end() || d.t.empty()) {
@@ -562,7 +602,8 @@ class Plotter {
     f.dat = s.str();
     std::ostringstream g;
     g << preamble(f.id, f.caption, 900, 560) << kStyles << "set title "
-      << gp_quote(ds_.runs[i].file + " (" + pose_md(fit_.poses[run_pose_.at(i)]) + ")") << " noenhanced\n"
+      << gp_quote(ds_.runs[i].file + " (" + pose_md(fit_.poses[run_pose_.at(i)]) + ")")
+      << " noenhanced\n"
       << "set xlabel 'time [s]'\nset ylabel 'θ [" << u_.pos << "]'\nset key outside right top\n"
       << "set autoscale xfix\n"
       << "plot '" << f.id << ".dat' using 1:2 with lines ls 4 title 'reference r', \\\n"
@@ -593,7 +634,8 @@ class Plotter {
         if (sp->gain > g_max) g_max = sp->gain, f_res = sp->point.freq_hz;
       }
       for (const auto* sp : pts) {
-        if (!sine || std::abs(sp->point.freq_hz - 0.75 * f_res) < std::abs(sine->point.freq_hz - 0.75 * f_res)) {
+        if (!sine || std::abs(sp->point.freq_hz - 0.75 * f_res) <
+                         std::abs(sine->point.freq_hz - 0.75 * f_res)) {
           sine = sp;
         }
       }
@@ -603,11 +645,13 @@ class Plotter {
     if (!sine) {
       skipped.push_back("Fig 13 (time response to a sine): no sine run with a fitted linear model");
     } else if (!simulate_run(sine->run, lin, alp, why)) {
-      skipped.push_back("Fig 13 (time response to a sine): " + ds_.runs[sine->run].file + ": " + why);
+      skipped.push_back("Fig 13 (time response to a sine): " + ds_.runs[sine->run].file + ": " +
+                        why);
     } else {
       const RunData& d = data_[sine->run];
       const double t0 = d.t.back() - 3.0 / sine->point.freq_hz;  // the last three periods
-      const std::size_t k0 = static_cast<std::size_t>(std::lower_bound(d.t.begin(), d.t.end(), t0) - d.t.begin());
+      const std::size_t k0 =
+          static_cast<std::size_t>(std::lower_bound(d.t.begin(), d.t.end(), t0) - d.t.begin());
       drafts.push_back(time_draft(
           sine->run, k0, d.size(), lin, alp, "fig13_time_sine",
           "Fig 13: the last three periods of " + ds_.runs[sine->run].file + " (" +
@@ -627,7 +671,8 @@ class Plotter {
       }
     }
     if (step == ds_.runs.size()) {
-      skipped.push_back("Fig 14 (step response): no square or step run at a pose with a fitted model");
+      skipped.push_back(
+          "Fig 14 (step response): no square or step run at a pose with a fitted model");
       return;
     }
     if (!simulate_run(step, lin, alp, why)) {
@@ -646,12 +691,16 @@ class Plotter {
     }
     const double t_edge = d.t[edge];
     const double t_lo = edge > 0 ? t_edge - 0.1 : d.t.front(), t_hi = t_lo + 1.1;
-    const std::size_t k0 = static_cast<std::size_t>(std::lower_bound(d.t.begin(), d.t.end(), t_lo) - d.t.begin());
-    const std::size_t k1 = static_cast<std::size_t>(std::upper_bound(d.t.begin(), d.t.end(), t_hi) - d.t.begin());
+    const std::size_t k0 =
+        static_cast<std::size_t>(std::lower_bound(d.t.begin(), d.t.end(), t_lo) - d.t.begin());
+    const std::size_t k1 =
+        static_cast<std::size_t>(std::upper_bound(d.t.begin(), d.t.end(), t_hi) - d.t.begin());
     drafts.push_back(time_draft(
         step, k0, k1, lin, alp, "fig14_time_step",
         "Fig 14: " + ds_.runs[step].file + " (" + pose_md(fit_.poses[run_pose_.at(step)]) +
-            ") around its " + (edge > 0 ? "first jump of the reference, at t = " + fixed(t_edge, "%.3g") + " s" : "start") +
+            ") around its " +
+            (edge > 0 ? "first jump of the reference, at t = " + fixed(t_edge, "%.3g") + " s"
+                      : "start") +
             ": measured θ vs the linear and the α-model simulated from the run's start"));
   }
 };
@@ -687,13 +736,16 @@ std::string read_tail(const fs::path& file, std::size_t max_chars) {
 }
 
 /// Runs `gnuplot -e "cd '<dir>'; outfile='<id>.png.part'" <dir>/<id>.gp` with stderr to
-/// <id>.log; renames the PNG into place when gnuplot exits 0 and wrote a PNG. Returns "" or why not.
+/// <id>.log; renames the PNG into place when gnuplot exits 0 and wrote a PNG. Returns "" or why
+/// not.
 std::string draw(const std::string& gnuplot, const fs::path& dir, const std::string& id) {
-  const fs::path png = dir / (id + ".png"), part = dir / (id + ".png.part"), log = dir / (id + ".log");
+  const fs::path png = dir / (id + ".png"), part = dir / (id + ".png.part"),
+                 log = dir / (id + ".log");
   std::error_code ec;
   fs::remove(png, ec);  // never leave an old figure that looks like this fit's
   fs::remove(part, ec);
-  const std::string setup = "cd " + gp_quote(dir.string()) + "; outfile = " + gp_quote(id + ".png.part");
+  const std::string setup =
+      "cd " + gp_quote(dir.string()) + "; outfile = " + gp_quote(id + ".png.part");
   const std::string script = (dir / (id + ".gp")).string();
   std::vector<std::string> args = {gnuplot, "-e", setup, script};
   std::vector<char*> argv;
@@ -704,7 +756,8 @@ std::string draw(const std::string& gnuplot, const fs::path& dir, const std::str
   posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
   posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, "/dev/null", O_WRONLY, 0);
   const std::string log_s = log.string();
-  posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, log_s.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, log_s.c_str(),
+                                   O_WRONLY | O_CREAT | O_TRUNC, 0644);
   pid_t pid = 0;
   const int rc = posix_spawnp(&pid, gnuplot.c_str(), &actions, nullptr, argv.data(), environ);
   posix_spawn_file_actions_destroy(&actions);
@@ -715,7 +768,8 @@ std::string draw(const std::string& gnuplot, const fs::path& dir, const std::str
   std::string why;
   if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
     why = gnuplot + " failed on " + id + ".gp (" +
-          (WIFEXITED(status) ? "exit " + std::to_string(WEXITSTATUS(status)) : std::string("killed")) +
+          (WIFEXITED(status) ? "exit " + std::to_string(WEXITSTATUS(status))
+                             : std::string("killed")) +
           "): " + read_tail(log, 400);
   } else if (!has_png_signature(part)) {
     why = gnuplot + " wrote no PNG for " + id + ".gp: " + read_tail(log, 400);
@@ -733,8 +787,8 @@ std::string draw(const std::string& gnuplot, const fs::path& dir, const std::str
 
 }  // namespace
 
-PlotSummary write_plots(const Dataset& dataset, const std::vector<RunData>& data, const DatasetFit& fit,
-                        const PlotOptions& options) {
+PlotSummary write_plots(const Dataset& dataset, const std::vector<RunData>& data,
+                        const DatasetFit& fit, const PlotOptions& options) {
   Plotter plotter(dataset, data, fit);
   plotter.make_all();
   PlotSummary summary;
@@ -755,7 +809,8 @@ PlotSummary write_plots(const Dataset& dataset, const std::vector<RunData>& data
     return summary;
   }
   if (!on_path(options.gnuplot)) {
-    summary.gnuplot_problem = "`" + options.gnuplot + "` was not found on PATH (Debian: apt-get install gnuplot-nox)";
+    summary.gnuplot_problem =
+        "`" + options.gnuplot + "` was not found on PATH (Debian: apt-get install gnuplot-nox)";
     return summary;
   }
   std::size_t drawn = 0;
@@ -767,7 +822,8 @@ PlotSummary write_plots(const Dataset& dataset, const std::vector<RunData>& data
     drawn += f.drawn ? 1 : 0;
   }
   if (options.progress) options.progress("plots", n, n);
-  if (drawn == 0) summary.gnuplot_problem = "gnuplot failed on every figure; first: " + summary.figures[0].error;
+  if (drawn == 0)
+    summary.gnuplot_problem = "gnuplot failed on every figure; first: " + summary.figures[0].error;
   return summary;
 }
 
@@ -776,7 +832,8 @@ std::string PlotSummary::markdown() const {
   r << "\n## Figures\n\n";
   if (!gnuplot_problem.empty()) {
     r << "Plots were skipped: " << gnuplot_problem << ". The plot data (`plots/*.dat`) and gnuplot "
-      << "scripts (`plots/*.gp`) are written; draw them later with `cd plots && gnuplot <name>.gp`.\n\n";
+      << "scripts (`plots/*.gp`) are written; draw them later with `cd plots && gnuplot "
+         "<name>.gp`.\n\n";
   }
   for (const Figure& f : figures) {
     if (f.drawn) {

@@ -25,9 +25,9 @@ namespace omni_fit {
 
 /// Settings of write_plots().
 struct PlotOptions {
-  std::filesystem::path out_dir;   ///< OUTDIR; figures go to OUTDIR/plots
-  std::string gnuplot = "gnuplot"; ///< program run for each script (looked up on PATH)
-  bool run_gnuplot = true;         ///< false: write data and scripts only
+  std::filesystem::path out_dir;    ///< OUTDIR; figures go to OUTDIR/plots
+  std::string gnuplot = "gnuplot";  ///< program run for each script (looked up on PATH)
+  bool run_gnuplot = true;          ///< false: write data and scripts only
   /// Progress ("plots", figures done, total); may be empty.
   std::function<void(std::string_view stage, std::size_t done, std::size_t total)> progress;
 };
@@ -50,11 +50,12 @@ struct PlotSummary {
 };
 
 /// Writes the figures' data and scripts and runs gnuplot (see file comment). Simulates at most two
-/// runs again (the time-domain overlays) with the fitted models, as fit_dataset()'s validation does.
-/// Throws alphainv::Error naming the file when a data or script file cannot be written; gnuplot
-/// problems never throw, they are recorded in the summary.
-PlotSummary write_plots(const alphainv::Dataset& dataset, const std::vector<alphainv::RunData>& data,
-                        const alphainv::DatasetFit& fit, const PlotOptions& options);
+/// runs again (the time-domain overlays) with the fitted models, as fit_dataset()'s validation
+/// does. Throws alphainv::Error naming the file when a data or script file cannot be written;
+/// gnuplot problems never throw, they are recorded in the summary.
+PlotSummary write_plots(const alphainv::Dataset& dataset,
+                        const std::vector<alphainv::RunData>& data, const alphainv::DatasetFit& fit,
+                        const PlotOptions& options);
 
 /// The report section for a fit whose plots were not attempted (`--no-plots`) or threw.
 std::string plots_skipped_markdown(std::string_view why);
