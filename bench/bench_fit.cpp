@@ -1,14 +1,15 @@
 // The whole fit of the bundled dataset (issue: "the whole fit of data/omni_yaw_sim in < 10 s on
 // 2 cores"): loading the runs, fit_dataset() with and without the validation simulations (on two
 // threads), and the report's figures (gnuplot). Wall time.
-// Needs data/omni_yaw_sim: ./build/release/apps/omni_gen/omni_gen paper -o data/omni_yaw_sim --seed 1
-// Run: ./build/release/bench/bench_fit --benchmark_repetitions=3 --benchmark_report_aggregates_only=true
+// Needs data/omni_yaw_sim: ./build/release/apps/omni_gen/omni_gen paper -o data/omni_yaw_sim --seed
+// 1 Run: ./build/release/bench/bench_fit --benchmark_repetitions=3
+// --benchmark_report_aggregates_only=true
+#include <benchmark/benchmark.h>
+
 #include <cstdlib>
 #include <filesystem>
 #include <string>
 #include <vector>
-
-#include <benchmark/benchmark.h>
 
 #include "alphainv/dataset.hpp"
 #include "alphainv/fit_pipeline.hpp"
