@@ -2,6 +2,7 @@
 // numbers, figures the data cannot support are skipped with a reason, a missing or failing gnuplot
 // leaves data and scripts but no PNG, and with gnuplot every PNG is complete.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdlib>
@@ -82,12 +83,20 @@ std::vector<std::vector<double>> read_block(const fs::path& file, int index) {
   return rows;
 }
 
-fs::path fresh_dir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("alphainv_test_plots_" + name);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+/// A fresh folder under the system's temporary folder, removed when the test ends.
+struct TempDir {
+  explicit TempDir(const std::string& name)
+      : path(fs::temp_directory_path() /
+             ("alphainv_test_plots_" + name + "_" + std::to_string(::getpid()))) {
+    fs::remove_all(path);
+    fs::create_directories(path);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+  fs::path path;
+};
 
 bool gnuplot_installed() { return std::system("command -v gnuplot > /dev/null 2>&1") == 0; }
 
@@ -131,7 +140,8 @@ TEST_F(PlotsTest, DataFilesCarryTheFitsNumbers) {
   ASSERT_TRUE(fit_.has_inertia_model);
   ASSERT_TRUE(fit_.alpha.ok);
   PlotOptions opt;
-  opt.out_dir = fresh_dir("data");
+  const TempDir tmp("data");
+  opt.out_dir = tmp.path;
   opt.run_gnuplot = false;
   const PlotSummary s = write_plots(ds_, data_, fit_, opt);
   EXPECT_EQ(s.gnuplot_problem, "drawing was not asked for");
@@ -234,7 +244,8 @@ TEST_F(PlotsTest, DataFilesCarryTheFitsNumbers) {
 
 TEST_F(PlotsTest, GnuplotMissingLeavesDataAndScripts) {
   PlotOptions opt;
-  opt.out_dir = fresh_dir("missing");
+  const TempDir tmp("missing");
+  opt.out_dir = tmp.path;
   const char* old_path = std::getenv("PATH");
   const std::string saved = old_path ? old_path : "";
   ::setenv("PATH", (opt.out_dir / "empty-bin").c_str(), 1);  // a PATH without gnuplot
@@ -255,7 +266,8 @@ TEST_F(PlotsTest, GnuplotMissingLeavesDataAndScripts) {
 
 TEST_F(PlotsTest, GnuplotFailingLeavesNoPng) {
   PlotOptions opt;
-  opt.out_dir = fresh_dir("failing");
+  const TempDir tmp("failing");
+  opt.out_dir = tmp.path;
   opt.gnuplot = "false";  // runs, exits 1, writes nothing
   const PlotSummary s = write_plots(ds_, data_, fit_, opt);
   EXPECT_NE(s.gnuplot_problem.find("failed on every figure"), std::string::npos)
@@ -273,7 +285,8 @@ TEST_F(PlotsTest, GnuplotFailingLeavesNoPng) {
 TEST_F(PlotsTest, GnuplotDrawsCompletePngs) {
   if (!gnuplot_installed()) GTEST_SKIP() << "gnuplot is not installed (Debian: gnuplot-nox)";
   PlotOptions opt;
-  opt.out_dir = fresh_dir("draw");
+  const TempDir tmp("draw");
+  opt.out_dir = tmp.path;
   fs::create_directories(opt.out_dir / "plots");
   std::ofstream(opt.out_dir / "plots" / "fig13_time_sine.png") << "stale";  // from an older fit
   std::size_t calls = 0, last_done = 0;
@@ -307,7 +320,8 @@ TEST(Plots, FiguresWithoutDataAreSkippedWithAReason) {
   make_dataset({{60.08, 87.00}}, {}, true, ds, data);
   const DatasetFit fit = fit_dataset(ds, data);
   PlotOptions opt;
-  opt.out_dir = fresh_dir("no_sine");
+  const TempDir tmp("no_sine");
+  opt.out_dir = tmp.path;
   opt.run_gnuplot = false;
   const PlotSummary s = write_plots(ds, data, fit, opt);
   EXPECT_TRUE(s.figures.empty());
