@@ -323,8 +323,11 @@ TEST(Plots, FiguresWithoutDataAreSkippedWithAReason) {
   const TempDir tmp("no_sine");
   opt.out_dir = tmp.path;
   opt.run_gnuplot = false;
+  fs::create_directories(opt.out_dir / "plots");
+  std::ofstream(opt.out_dir / "plots" / "fig11_bode_pose3.png") << "an older fit's figure";
   const PlotSummary s = write_plots(ds, data, fit, opt);
   EXPECT_TRUE(s.figures.empty());
+  EXPECT_FALSE(fs::exists(opt.out_dir / "plots" / "fig11_bode_pose3.png"));
   EXPECT_TRUE(has(s.skipped, "Fig 8 (α against frequency): no sine runs"));
   EXPECT_TRUE(has(s.skipped, "Figs 11-12 (Bode): no sine runs"));
   EXPECT_TRUE(has(s.skipped, "Figs 4-7"));

@@ -15,6 +15,7 @@
 #include <iterator>
 #include <limits>
 #include <map>
+#include <set>
 #include <sstream>
 
 #include "alphainv/dataset.hpp"
@@ -794,9 +795,21 @@ PlotSummary write_plots(const Dataset& dataset, const std::vector<RunData>& data
   plotter.make_all();
   PlotSummary summary;
   summary.skipped = plotter.skipped;
-  if (plotter.drafts.empty()) return summary;
   const fs::path dir = options.out_dir / "plots";
   std::error_code ec;
+  // Files of figures an earlier fit into this folder made and this one does not: removed, so the
+  // folder never shows a figure of other data.
+  std::set<std::string> ids;
+  for (const Draft& d : plotter.drafts) ids.insert(d.id);
+  std::vector<fs::path> stale;
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    const std::string name = e.path().filename().string();
+    if (name.rfind("fig", 0) == 0 && ids.count(name.substr(0, name.find('.'))) == 0) {
+      stale.push_back(e.path());
+    }
+  }
+  for (const auto& f : stale) fs::remove(f, ec);
+  if (plotter.drafts.empty()) return summary;
   fs::create_directories(dir, ec);
   if (ec) throw Error("cannot create the plots folder: " + ec.message(), dir.string());
   for (const Draft& d : plotter.drafts) {
