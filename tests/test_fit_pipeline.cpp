@@ -1,6 +1,8 @@
 #include "alphainv/fit_pipeline.hpp"
 
+#include <atomic>
 #include <cmath>
+#include <map>
 
 #include <gtest/gtest.h>
 
@@ -127,6 +129,38 @@ TEST(FitPipeline, NoSineRunsFitsInTheTimeDomain) {
   EXPECT_LT(fit.alpha_errors.rel_position_error_median, 0.05);
   EXPECT_LT(fit.alpha_errors.rel_position_error_median,
             0.5 * fit.linear_errors.rel_position_error_median);
+}
+
+TEST(FitPipeline, ReportsProgressOfEveryStage) {
+  Dataset ds;
+  std::vector<RunData> data;
+  make_dataset({{21.54, 69.54}, {19.31, 112.44}, {40.68, 68.52}, {39.83, 87.63}, {60.68, 67.62},
+                {60.08, 87.00}},
+               ds, data);
+  FitPipelineOptions opt;
+  opt.threads = 3;
+  std::map<std::string, std::pair<std::size_t, std::size_t>> last;  // stage: (done, total)
+  std::atomic<int> inside{0};
+  bool overlapped = false, decreased = false;
+  opt.progress = [&](std::string_view stage, std::size_t done, std::size_t total) {
+    overlapped = overlapped || ++inside > 1;
+    auto& l = last[std::string(stage)];
+    decreased = decreased || done < l.first;
+    l = {done, total};
+    --inside;
+  };
+  const DatasetFit fit = fit_dataset(ds, data, opt);
+  ASSERT_TRUE(fit.alpha.ok);
+  EXPECT_FALSE(overlapped);
+  EXPECT_FALSE(decreased);
+  const std::size_t n = ds.runs.size();
+  using P = std::pair<std::size_t, std::size_t>;
+  EXPECT_EQ(last["local fits"], P(n, n));
+  EXPECT_EQ(last["inertia fit"], P(1, 1));
+  EXPECT_EQ(last["alpha breakpoint search"], P(1, 1));
+  EXPECT_EQ(last["validation simulations"], P(n, n));
+  EXPECT_EQ(last["time-domain fit"], P(1, 1));
+  EXPECT_EQ(last.size(), 5u);
 }
 
 }  // namespace

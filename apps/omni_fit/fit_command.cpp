@@ -6,14 +6,14 @@
 #include <fstream>
 #include <sstream>
 
-#include <unistd.h>
-
 #include <nlohmann/json.hpp>
 
 #include "alphainv/dataset.hpp"
 #include "alphainv/error.hpp"
 #include "alphainv/fit_pipeline.hpp"
 #include "alphainv/model_file.hpp"
+#include "plots.hpp"
+#include "progress.hpp"
 
 namespace omni_fit {
 
@@ -151,20 +151,23 @@ std::string make_report(const Dataset& ds, const DatasetFit& fit, const ModelFil
 int run_fit(const FitCommandOptions& opt) {
   Dataset ds;
   std::vector<RunData> data;
+  ProgressLine progress(ProgressLine::stderr_wanted(opt.quiet));
+  auto show = [&progress](std::string_view stage, std::size_t done, std::size_t total) {
+    progress.update(stage, done, total);
+  };
   try {
     ds = read_dataset_index(opt.dataset_dir);
     for (std::size_t i = 0; i < ds.runs.size(); ++i) {
-      if (!opt.quiet && isatty(fileno(stderr))) {
-        std::fprintf(stderr, "\rreading run %zu/%zu", i + 1, ds.runs.size());
-      }
+      show("loading runs", i, ds.runs.size());
       data.push_back(read_run(ds, i));
     }
-    if (!opt.quiet && isatty(fileno(stderr))) std::fprintf(stderr, "\n");
   } catch (const Error& e) {
+    progress.clear();
     std::fprintf(stderr, "omni_fit fit: %s\n", e.what());
     return 2;
   }
   FitPipelineOptions popt;
+  if (progress.enabled()) popt.progress = show;
   popt.threads = opt.threads;
   popt.n_breakpoints = opt.n_breakpoints;
   const DatasetFit fit = fit_dataset(ds, data, popt);
@@ -204,7 +207,18 @@ int run_fit(const FitCommandOptions& opt) {
   try {
     fs::create_directories(out);
     write_model_file(out / "model.json", model);
-    write_atomic(out / "report.md", make_report(ds, fit, model));
+    PlotOptions plot_opt;
+    plot_opt.out_dir = out;
+    if (progress.enabled()) plot_opt.progress = show;
+    std::string plot_warning;
+    const std::string figures =
+        opt.no_plots ? plots_skipped_markdown("--no-plots was given")
+                     : draw_report_figures(ds, data, fit, plot_opt, plot_warning);
+    progress.clear();
+    if (!plot_warning.empty() && !opt.quiet) {
+      std::fprintf(stderr, "omni_fit fit: %s\n", plot_warning.c_str());
+    }
+    write_atomic(out / "report.md", make_report(ds, fit, model) + figures);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "omni_fit fit: writing %s: %s\n", out.string().c_str(), e.what());
     return 2;

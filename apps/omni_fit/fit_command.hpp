@@ -8,6 +8,7 @@ struct FitCommandOptions {
   std::string out_dir;
   bool json = false;
   bool quiet = false;
+  bool no_plots = false;  ///< skip the report's figures (no data, scripts or PNGs)
   unsigned threads = 0;
   std::size_t n_breakpoints = 4;
 };

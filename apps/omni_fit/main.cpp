@@ -89,6 +89,7 @@ int main(int argc, char** argv) {
   fitc->add_option("-o,--out", fo.out_dir, "output folder for model.json and report.md")->required();
   fitc->add_flag("--json", fo.json, "print one JSON object with the headline figures to stdout");
   fitc->add_flag("-q,--quiet", fo.quiet, "print nothing but errors");
+  fitc->add_flag("--no-plots", fo.no_plots, "skip the report's figures (gnuplot)");
   fitc->add_option("--threads", fo.threads, "threads for the validation runs (default: all cores)");
   fitc->add_option("--breakpoints", fo.n_breakpoints, "number of alpha breakpoints N (2..8)")
       ->capture_default_str()->check(CLI::Range(2, 8));

@@ -7,9 +7,11 @@
 /// `notes` and leaves the affected parts empty. Throws alphainv::Error only for unreadable input.
 
 #include <cstddef>
+#include <functional>
 #include <limits>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "alphainv/alpha_fit.hpp"
@@ -34,6 +36,10 @@ struct FitPipelineOptions {
   /// Poses without sine runs get their linear model (and the dataset its α-model, when no sine run
   /// gave one) by time-domain output error (time_domain_fit.hpp) on their runs.
   bool time_domain = true;
+  /// Progress of the stages ("local fits", "inertia fit", "alpha breakpoint search",
+  /// "validation simulations"): items done of total. Calls never overlap (a mutex serialises
+  /// them) but may come from a validation worker thread. Empty: no calls.
+  std::function<void(std::string_view stage, std::size_t done, std::size_t total)> progress;
 };
 
 /// One sine run's local identification.

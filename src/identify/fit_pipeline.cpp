@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <mutex>
 #include <thread>
 
 #include "alphainv/metrics.hpp"
@@ -71,6 +72,12 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
                        const FitPipelineOptions& options) {
   DatasetFit fit;
   const std::size_t n_runs = dataset.runs.size();
+  std::mutex progress_mutex;
+  auto progress = [&](std::string_view stage, std::size_t done, std::size_t total) {
+    if (!options.progress) return;
+    const std::lock_guard<std::mutex> lock(progress_mutex);
+    options.progress(stage, done, total);
+  };
 
   // --- poses: runs grouped by their measured (γ1, γ2), rounded to 0.01° -----------------------
   std::map<std::pair<long, long>, std::size_t> pose_index;
@@ -99,6 +106,7 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
   std::vector<std::vector<LocalLinearPoint>> pose_points(fit.poses.size());
   std::size_t skipped_controller = 0;
   for (std::size_t i = 0; i < n_runs; ++i) {
+    progress("local fits", i, n_runs);
     const RunInfo& run = dataset.runs[i];
     if (!is_periodic_kind(run)) continue;
     const Controller ctl = to_controller(run.controller);
@@ -130,6 +138,7 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
     fit.sine_points.push_back(sp);
     pose_points[sp.pose].push_back(sp.point);
   }
+  progress("local fits", n_runs, n_runs);
   if (skipped_controller > 0) {
     fit.notes.push_back(std::to_string(skipped_controller) +
                         " sine run(s) were not under a pure P law (kp > 0, ki = kd = 0), which the "
@@ -201,7 +210,9 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
     }
   }
   if (ipose.size() >= 6) {
+    progress("inertia fit", 0, 1);
     fit.inertia = fit_inertia_model(ipose, InertiaFitOptions{});
+    progress("inertia fit", 1, 1);
     fit.has_inertia_model = fit.inertia.converged;
     if (!fit.has_inertia_model) {
       fit.notes.push_back("inertia model fit did not converge: " + fit.inertia.message +
@@ -231,8 +242,10 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
     AlphaFitOptions aopt;
     aopt.kp = fit.kp;
     aopt.n_breakpoints = options.n_breakpoints;
+    progress("alpha breakpoint search", 0, 1);
     fit.alpha = fit_alpha_model(apose, aopt);
     if (fit.alpha.ok) fit.alpha_source = "sine (2.3.5)";
+    progress("alpha breakpoint search", 1, 1);
     if (!fit.alpha.ok) fit.notes.push_back("α-invariant model not fitted: " + fit.alpha.message);
     if (!fit.has_inertia_model && apose.size() > 1) {
       fit.notes.push_back("without an inertia model the α-model is one model for all poses (I = 1)");
@@ -261,7 +274,11 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
     }
     if (!dts.empty()) fit.simulation.max_step_s = std::max(1e-3, percentile(dts, 50.0));
   }
-  if (options.time_domain) detail::add_time_domain_fit(dataset, data, options, fit);
+  if (options.time_domain) {
+    progress("time-domain fit", 0, 1);
+    detail::add_time_domain_fit(dataset, data, options, fit);
+    progress("time-domain fit", 1, 1);
+  }
 
   // --- validation: every run simulated with both models under its own controller ----------------
   if (options.validate) {
@@ -269,9 +286,12 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
     const unsigned hw = std::max(1u, std::thread::hardware_concurrency());
     const unsigned n_threads = std::max(1u, std::min<unsigned>(options.threads ? options.threads : hw,
                                                                static_cast<unsigned>(n_runs)));
-    std::atomic<std::size_t> next{0};
+    std::atomic<std::size_t> next{0}, done{0};
+    progress("validation simulations", 0, n_runs);
     auto worker = [&]() {
-      for (std::size_t i = next++; i < n_runs; i = next++) {
+      // The increment reports each finished run, also those left by `continue`.
+      for (std::size_t i = next++; i < n_runs; progress("validation simulations", ++done, n_runs),
+                       i = next++) {
         RunValidation& rv = fit.validation[i];
         rv.run = i;
         const RunInfo& run = dataset.runs[i];
