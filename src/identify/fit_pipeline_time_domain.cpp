@@ -26,7 +26,8 @@ void add_time_domain_fit(const Dataset& dataset, const std::vector<RunData>& dat
   std::size_t torque_off = 0, not_p = 0;
   for (std::size_t p = 0; p < fit.poses.size(); ++p) {
     PoseFit& pose = fit.poses[p];
-    if (pose.linear.valid) continue;
+    // With an inertia model every pose with known angles has its model (24)-(25) already.
+    if (pose.linear.valid || (fit.has_inertia_model && pose.gamma1_deg)) continue;
     std::vector<TimeDomainRun> runs;
     for (std::size_t i : pose.runs) {
       if (has_torque_off(data[i])) {
