@@ -31,6 +31,11 @@ struct FitPipelineOptions {
   std::size_t n_breakpoints = 4;  ///< N of the α-model
   unsigned threads = 0;           ///< validation simulations in parallel; 0: all cores
   bool validate = true;           ///< simulate every run with both models
+  /// Digital-loop correction of the local points (local_linear_point()): the controller tick T [s].
+  /// NaN (default): T = 1/sample_rate_hz when the dataset gives a rate (a digital loop: the command
+  /// of each row held until the next), else a continuous loop; 0: off, the paper's (19)-(20);
+  /// > 0: this T.
+  double loop_period_s = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// One sine run's local identification.
@@ -86,6 +91,7 @@ struct DatasetFit {
   bool has_inertia_model = false;
   InertiaFitSummary inertia;   ///< valid when has_inertia_model
   double kp = 0.0;             ///< the P gain used to turn β into β̃ (runs must agree)
+  double loop_period_s = 0.0;  ///< T the digital-loop correction used [s]; 0: continuous (19)-(20)
   AlphaFitResult alpha;        ///< alpha.ok when the α-model was fitted
   std::vector<RunValidation> validation;
   std::vector<std::string> notes;  ///< what could not be done, and why; choices made

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <map>
 #include <thread>
@@ -28,6 +29,12 @@ double finite_percentile(const std::vector<double>& v, double p) {
 }
 double finite_median(const std::vector<double>& v) { return finite_percentile(v, 50.0); }
 double finite_p90(const std::vector<double>& v) { return finite_percentile(v, 90.0); }
+
+std::string format_g(double x) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.6g", x);
+  return b;
+}
 
 bool is_periodic_kind(const RunInfo& run) {
   return (run.kind == "sine") && run.freq_hz && *run.freq_hz > 0.0;
@@ -94,6 +101,24 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
   }
 
   // --- local linear points (14)-(20), (36) per sine run ------------------------------------------
+  // A digital loop (controller tick T, command held) biases (19)-(20); local_linear_point() undoes
+  // it exactly when T is known: from the options, else from the dataset's sample rate.
+  if (std::isnan(options.loop_period_s)) {
+    fit.loop_period_s =
+        dataset.sample_rate_hz && *dataset.sample_rate_hz > 0.0 ? 1.0 / *dataset.sample_rate_hz : 0.0;
+  } else {
+    fit.loop_period_s = std::max(0.0, options.loop_period_s);
+  }
+  fit.notes.push_back(
+      fit.loop_period_s > 0.0
+          ? "digital-loop correction: the sine runs are taken as a P law ticking every T = " +
+                format_g(fit.loop_period_s * 1e3) +
+                " ms with the command held over the tick (zero-order hold); C_data and β_data are "
+                "the exact inversion of that sampled-data loop, not eqs. (19)-(20) as printed "
+                "(which read C low by about ω²T/2)"
+          : "continuous loop assumed (no sample rate given or correction off): C_data, β_data by "
+            "eqs. (19)-(20) as printed");
+  std::size_t off_rate_runs = 0;
   std::vector<std::vector<LocalLinearPoint>> pose_points(fit.poses.size());
   std::size_t skipped_controller = 0;
   for (std::size_t i = 0; i < n_runs; ++i) {
@@ -122,7 +147,12 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
     SineRunPoint sp;
     sp.run = i;
     sp.pose = run_pose[i];
-    sp.point = local_linear_point(f, a0 * std::sin(phi), a0 * std::cos(phi), ar, ctl.kp);
+    if (fit.loop_period_s > 0.0 && d.t.size() > 1) {
+      const double dt_s = (d.t.back() - d.t.front()) / static_cast<double>(d.t.size() - 1);
+      if (std::abs(dt_s / fit.loop_period_s - 1.0) > 0.01) ++off_rate_runs;
+    }
+    sp.point = local_linear_point(f, a0 * std::sin(phi), a0 * std::cos(phi), ar, ctl.kp,
+                                  fit.loop_period_s);
     sp.gain = a0 / ar;
     sp.phase_deg = rad_to_deg(phi);
     fit.sine_points.push_back(sp);
@@ -132,6 +162,11 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
     fit.notes.push_back(std::to_string(skipped_controller) +
                         " sine run(s) were not under a pure P law (kp > 0, ki = kd = 0), which the "
                         "local linear model (19)-(20) assumes; they were left out of identification");
+  }
+  if (off_rate_runs > 0) {
+    fit.notes.push_back(std::to_string(off_rate_runs) +
+                        " sine run(s) are not sampled at the loop period T: the digital-loop "
+                        "correction assumes one controller tick per sample; check sample_rate_hz");
   }
   std::size_t n_nonphysical = 0;
   for (const auto& sp : fit.sine_points) n_nonphysical += sp.point.physical ? 0 : 1;
