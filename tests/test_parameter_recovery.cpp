@@ -123,23 +123,41 @@ DatasetFit fit_plan(const ExperimentPlan& plan, const FitPipelineOptions& option
   return fit_dataset(g.index, g.runs, options);
 }
 
-void print_recovery(const char* label, const DatasetFit& fit, const Recovery& rec) {
+/// Common scale k of the fitted inertia model against the plant's (only I·β̃_n1 and I·C_n1 are
+/// identifiable: (C_n1, β̃_n1, I) → (C_n1/k, β̃_n1/k, k·I) changes nothing), over the sine poses.
+double inertia_scale(const ExperimentPlan& plan, const DatasetFit& fit) {
+  double s_fit = 0.0, s_true = 0.0;
+  for (const auto& q : plan.poses) {
+    s_fit += fit.inertia.model.inertia.inertia(deg_to_rad(q.gamma1_deg), deg_to_rad(q.gamma2_deg));
+    s_true += q.inertia;
+  }
+  return s_fit / s_true;
+}
+
+void print_recovery(const char* label, const DatasetFit& fit, const Recovery& rec,
+                    const ExperimentPlan& plan) {
   const AlphaModel& a = fit.alpha.model;
-  std::printf("  [%s] T=%.3g ms  C(a) max err %.2f %%  bt(a) max err %.2f %%  C0 fit %.3f ref %.3f "
+  std::printf("  [%s] T=%.3g ms score %.3g->%.3g  C(a) max err %.2f %%  bt(a) max err %.2f %%  C0 fit %.3f ref %.3f "
               "(%.2f %%)\n      breakpoints %.3g %.3g %.3g %.3g  c_n1 %.4g %.4g %.4g %.4g  bt_n1 "
               "%.4g %.4g\n",
-              label, 1e3 * fit.loop_period_s, 100 * rec.c_max_rel, 100 * rec.bt_max_rel, rec.c0_fit,
+              label, 1e3 * fit.loop_period_s, fit.alpha.grid_score, fit.alpha.score, 100 * rec.c_max_rel, 100 * rec.bt_max_rel, rec.c0_fit,
               rec.c0_ref, 100 * (rec.c0_fit / rec.c0_ref - 1), a.alpha[0], a.alpha[1], a.alpha[2],
               a.alpha[3], a.c_n1[0], a.c_n1[1], a.c_n1[2], a.c_n1[3], a.beta_n1[0], a.beta_n1[1]);
   if (fit.has_inertia_model) {
+    const double k_scale = inertia_scale(plan, fit);
+    const InertiaModel& t = plan.options.plant.inertia;
+    const double plant[5] = {t.i_base, t.i1, t.i2, t.i3, t.gamma_offs_rad};
     for (int k = 0; k < kInertiaFitParameterCount; ++k) {
       const auto i = static_cast<std::size_t>(k);
-      std::printf("      %-10s fit %.5g ± %.2g (%s)  ref %.5g  (%+.2f %%)\n",
+      const double truth = k < 4 ? k_scale * plant[k] : k == 4 ? plant[4] : NAN;
+      std::printf("      %-10s fit %.5g ± %.2g (%s)  lin-ref %.5g (%+.2f %%)  plant×%.3f %.5g "
+                  "(%+.2f %%)\n",
                   inertia_fit_parameter_name(k), fit.inertia.parameters[i],
                   fit.inertia.standard_errors[i],
                   fit.inertia.poorly_determined[i] ? "poorly determined" : "identifiable",
                   rec.inertia_ref.parameters[i],
-                  100 * (fit.inertia.parameters[i] / rec.inertia_ref.parameters[i] - 1));
+                  100 * (fit.inertia.parameters[i] / rec.inertia_ref.parameters[i] - 1), k_scale,
+                  truth, 100 * (fit.inertia.parameters[i] / truth - 1));
     }
   }
 }
@@ -164,16 +182,26 @@ TEST(ParameterRecovery, DISABLED_Table) {
     cases.push_back({"other truth, bundled effects", other_truth_options(seed, true)});
   }
   cases.push_back({"other truth, no effects", other_truth_options(7, false)});
+  {
+    ExperimentPlanOptions o = other_truth_options(8, true);
+    o.plant.effects.coulomb_v = 0.0;
+    cases.push_back({"other truth, noise+quantisation, no Coulomb", o});
+  }
   for (const auto& c : cases) {
     const ExperimentPlan plan = make_experiment_plan(c.options);
     const GeneratedDataset g = generate_dataset(plan);
-    for (double t : {0.0, std::nan("")}) {
+    for (int mode = 0; mode < 4; ++mode) {
       FitPipelineOptions o = fast_options();
-      o.loop_period_s = t;
+      o.loop_period_s = mode == 0 ? 0.0 : std::nan("");
+      o.refine_breakpoints = mode >= 2;
+      o.alpha_consistent_inertia = mode >= 3;
       const DatasetFit fit = fit_dataset(g.index, g.runs, o);
       const Recovery rec = compare(plan, fit);
-      const std::string label = std::string(c.name) + ", seed " + std::to_string(c.options.seed);
-      print_recovery(label.c_str(), fit, rec);
+      const char* modes[] = {"before: (19)-(20), grid", "ZOH-corrected, grid",
+                             "ZOH-corrected, grid+NM", "ZOH, grid+NM, alpha-consistent I"};
+      const std::string label = std::string(c.name) + ", seed " + std::to_string(c.options.seed) +
+                                ", " + modes[mode];
+      print_recovery(label.c_str(), fit, rec, plan);
     }
   }
 }

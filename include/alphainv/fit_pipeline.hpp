@@ -36,6 +36,10 @@ struct FitPipelineOptions {
   /// of each row held until the next), else a continuous loop; 0: off, the paper's (19)-(20);
   /// > 0: this T.
   double loop_period_s = std::numeric_limits<double>::quiet_NaN();
+  bool refine_breakpoints = true;  ///< AlphaFitOptions::refine (NLopt search off the grid)
+  /// Re-identify the inertia model so that it is consistent with the α-model (see fit_dataset's
+  /// notes); false: the paper's inertia model from the global linear fits alone.
+  bool alpha_consistent_inertia = true;
 };
 
 /// One sine run's local identification.
