@@ -23,6 +23,8 @@
 #include "alphainv/experiment_plan.hpp"
 #include "alphainv/fit_pipeline.hpp"
 #include "alphainv/inertia_fit.hpp"
+#include "alphainv/metrics.hpp"
+#include "alphainv/reference.hpp"
 
 namespace alphainv {
 namespace {
@@ -50,16 +52,37 @@ ExperimentPlanOptions other_truth_options(std::uint64_t seed, bool effects) {
 struct Recovery {
   double c_max_rel = 0.0;   ///< max over poses and covered α of |C_fit/C_true − 1|
   double bt_max_rel = 0.0;  ///< same for β̃
+  double c_max_rel_alpha_ge_10 = 0.0;  ///< the same over α ≥ 10 only
+  /// max over the data points of |C_fit(α_k, I)/C_eff,k − 1|, C_eff the truth plus the Coulomb
+  /// friction's describing function β̃·4Fc/(π ω A0) (A0: the point's θ amplitude): the damping the
+  /// data actually carry when the plant has Coulomb friction (equal to C_true without it).
+  double c_max_rel_effective = 0.0;
+  double c_data_max_rel_effective = 0.0;  ///< the same for the local points' C_data
   double c0_fit = NAN, c0_ref = NAN;
+  /// C̄0 the truth implies with the fit's inertia convention: eq. (29) regression β̃ = C̄0·C with
+  /// β̃ = 1/(k·I_true) (k: inertia_scale) and the truth's band C_linear.
+  double c0_ref_scaled = NAN;
   InertiaFitSummary inertia_ref;  ///< inertia fit to the truth-implied linear models
   std::vector<double> alpha_lo, alpha_hi;  ///< covered α per fitted pose
 };
+
+/// Common scale k of the fitted inertia model against the plant's (only I·β̃_n1 and I·C_n1 are
+/// identifiable: (C_n1, β̃_n1, I) → (C_n1/k, β̃_n1/k, k·I) changes nothing), over the sine poses.
+double inertia_scale(const ExperimentPlan& plan, const DatasetFit& fit) {
+  double s_fit = 0.0, s_true = 0.0;
+  for (const auto& q : plan.poses) {
+    s_fit += fit.inertia.model.inertia.inertia(deg_to_rad(q.gamma1_deg), deg_to_rad(q.gamma2_deg));
+    s_true += q.inertia;
+  }
+  return s_fit / s_true;
+}
 
 /// The comparison described in the file comment.
 Recovery compare(const ExperimentPlan& plan, const DatasetFit& fit) {
   Recovery rec;
   const AlphaModel& truth = plan.options.plant.alpha_model;
   std::vector<InertiaPose> ref_poses;
+  std::vector<double> ref_true_inertia;
   for (std::size_t p = 0; p < fit.poses.size(); ++p) {
     const PoseFit& pose = fit.poses[p];
     if (!pose.gamma1_deg) continue;
@@ -78,6 +101,17 @@ Recovery compare(const ExperimentPlan& plan, const DatasetFit& fit) {
       if (sp.pose != p || !sp.point.physical) continue;
       lo = std::min(lo, sp.point.alpha_data);
       hi = std::max(hi, sp.point.alpha_data);
+      if (fit.alpha.ok) {
+        const double a = sp.point.alpha_data, w = sp.point.omega_rad_s;
+        const double a0 = std::hypot(sp.point.a1, sp.point.a2);
+        const double c_eff = truth.damping(a, pp->inertia) +
+                             truth.beta_tilde(a, pp->inertia) * 4.0 *
+                                 plan.options.plant.effects.coulomb_v / (kPi * w * a0);
+        rec.c_max_rel_effective = std::max(
+            rec.c_max_rel_effective, std::abs(fit.alpha.model.damping(a, pose.inertia) / c_eff - 1));
+        rec.c_data_max_rel_effective =
+            std::max(rec.c_data_max_rel_effective, std::abs(sp.point.c_data / c_eff - 1));
+      }
       if (sp.point.freq_hz >= pose.band_lo_hz - 1e-9 && sp.point.freq_hz <= pose.band_hi_hz + 1e-9) {
         // The truth's own point: C, β of the plant at this α, as a continuous-loop response.
         const double c = truth.damping(sp.point.alpha_data, pp->inertia);
@@ -94,7 +128,9 @@ Recovery compare(const ExperimentPlan& plan, const DatasetFit& fit) {
       const double alpha = lo * std::pow(hi / lo, k / 60.0);
       const double c_fit = fit.alpha.model.damping(alpha, pose.inertia);
       const double bt_fit = fit.alpha.model.beta_tilde(alpha, pose.inertia);
-      rec.c_max_rel = std::max(rec.c_max_rel, std::abs(c_fit / truth.damping(alpha, pp->inertia) - 1));
+      const double c_err = std::abs(c_fit / truth.damping(alpha, pp->inertia) - 1);
+      rec.c_max_rel = std::max(rec.c_max_rel, c_err);
+      if (alpha >= 10.0) rec.c_max_rel_alpha_ge_10 = std::max(rec.c_max_rel_alpha_ge_10, c_err);
       rec.bt_max_rel =
           std::max(rec.bt_max_rel, std::abs(bt_fit / truth.beta_tilde(alpha, pp->inertia) - 1));
     }
@@ -102,7 +138,17 @@ Recovery compare(const ExperimentPlan& plan, const DatasetFit& fit) {
     if (ref.valid) {
       ref_poses.push_back({deg_to_rad(pp->gamma1_deg), deg_to_rad(pp->gamma2_deg), ref.c_linear,
                            ref.beta_tilde_linear});
+      ref_true_inertia.push_back(pp->inertia);
     }
+  }
+  if (fit.has_inertia_model && !ref_poses.empty()) {
+    const double k = inertia_scale(plan, fit);
+    double sxy = 0.0, sxx = 0.0;
+    for (std::size_t j = 0; j < ref_poses.size(); ++j) {
+      sxy += ref_poses[j].c_linear / (k * ref_true_inertia[j]);
+      sxx += ref_poses[j].c_linear * ref_poses[j].c_linear;
+    }
+    rec.c0_ref_scaled = sxy / sxx;
   }
   if (fit.has_inertia_model) rec.c0_fit = fit.inertia.model.c0_bar;
   if (ref_poses.size() >= 6) {
@@ -118,30 +164,17 @@ FitPipelineOptions fast_options() {
   return o;
 }
 
-DatasetFit fit_plan(const ExperimentPlan& plan, const FitPipelineOptions& options) {
-  const GeneratedDataset g = generate_dataset(plan);
-  return fit_dataset(g.index, g.runs, options);
-}
-
-/// Common scale k of the fitted inertia model against the plant's (only I·β̃_n1 and I·C_n1 are
-/// identifiable: (C_n1, β̃_n1, I) → (C_n1/k, β̃_n1/k, k·I) changes nothing), over the sine poses.
-double inertia_scale(const ExperimentPlan& plan, const DatasetFit& fit) {
-  double s_fit = 0.0, s_true = 0.0;
-  for (const auto& q : plan.poses) {
-    s_fit += fit.inertia.model.inertia.inertia(deg_to_rad(q.gamma1_deg), deg_to_rad(q.gamma2_deg));
-    s_true += q.inertia;
-  }
-  return s_fit / s_true;
-}
 
 void print_recovery(const char* label, const DatasetFit& fit, const Recovery& rec,
                     const ExperimentPlan& plan) {
   const AlphaModel& a = fit.alpha.model;
-  std::printf("  [%s] T=%.3g ms score %.3g->%.3g  C(a) max err %.2f %%  bt(a) max err %.2f %%  C0 fit %.3f ref %.3f "
-              "(%.2f %%)\n      breakpoints %.3g %.3g %.3g %.3g  c_n1 %.4g %.4g %.4g %.4g  bt_n1 "
+  std::printf("  [%s] T=%.3g ms score %.3g->%.3g  C(a) max err %.2f %% (a>=10: %.2f %%; vs C_eff at "
+              "points: model %.2f %%, C_data %.2f %%)  bt(a) max err %.2f %%  C0 fit %.3f ref %.3f (%.2f %%) ref(I conv.) %.3f (%.2f %%)\n      breakpoints %.3g %.3g %.3g %.3g  c_n1 %.4g %.4g %.4g %.4g  bt_n1 "
               "%.4g %.4g\n",
-              label, 1e3 * fit.loop_period_s, fit.alpha.grid_score, fit.alpha.score, 100 * rec.c_max_rel, 100 * rec.bt_max_rel, rec.c0_fit,
-              rec.c0_ref, 100 * (rec.c0_fit / rec.c0_ref - 1), a.alpha[0], a.alpha[1], a.alpha[2],
+              label, 1e3 * fit.loop_period_s, fit.alpha.grid_score, fit.alpha.score, 100 * rec.c_max_rel, 100 * rec.c_max_rel_alpha_ge_10,
+              100 * rec.c_max_rel_effective, 100 * rec.c_data_max_rel_effective,
+              100 * rec.bt_max_rel, rec.c0_fit, rec.c0_ref, 100 * (rec.c0_fit / rec.c0_ref - 1),
+              rec.c0_ref_scaled, 100 * (rec.c0_fit / rec.c0_ref_scaled - 1), a.alpha[0], a.alpha[1], a.alpha[2],
               a.alpha[3], a.c_n1[0], a.c_n1[1], a.c_n1[2], a.c_n1[3], a.beta_n1[0], a.beta_n1[1]);
   if (fit.has_inertia_model) {
     const double k_scale = inertia_scale(plan, fit);
@@ -160,6 +193,78 @@ void print_recovery(const char* label, const DatasetFit& fit, const Recovery& re
                   truth, 100 * (fit.inertia.parameters[i] / truth - 1));
     }
   }
+}
+
+TEST(ParameterRecovery, AnotherTruthFromNoisyDigitalLoopDataWithinFivePercent) {
+  // Issue #4: a truth and a seed unlike the bundled set's (other_truth_options), with its encoder
+  // (quantisation 1.5e-4 rad, noise 5e-5 rad) but without the Coulomb friction, which the α-model
+  // cannot represent (see CoulombFriction… below). Digital 1 kHz loop, sample_rate_hz = 1000.
+  ExperimentPlanOptions o = other_truth_options(11, true);
+  o.plant.effects.coulomb_v = 0.0;
+  const ExperimentPlan plan = make_experiment_plan(o);
+  const GeneratedDataset g = generate_dataset(plan);
+  const DatasetFit fit = fit_dataset(g.index, g.runs, fast_options());
+  ASSERT_DOUBLE_EQ(fit.loop_period_s, 1e-3);  // from sample_rate_hz
+  ASSERT_TRUE(fit.has_inertia_model) << fit.inertia.message;
+  ASSERT_TRUE(fit.alpha.ok) << fit.alpha.message;
+  const Recovery rec = compare(plan, fit);
+  print_recovery("other truth, seed 11, noise+quantisation", fit, rec, plan);
+  // The α-model along the α each pose's data cover.
+  EXPECT_LT(rec.c_max_rel, 0.05);
+  EXPECT_LT(rec.bt_max_rel, 0.05);
+  // C̄0 against the C̄0 the truth implies on the same band with the same inertia convention.
+  EXPECT_NEAR(rec.c0_fit, rec.c0_ref_scaled, 0.05 * rec.c0_ref_scaled);
+  // Inertia parameters flagged identifiable by their SEs: within 5 % of the plant's, up to the
+  // common scale k that no data can fix (γ_offs, an angle: within 1° or 2 SE).
+  const double k = inertia_scale(plan, fit);
+  const InertiaModel& t = o.plant.inertia;
+  const double plant[4] = {t.i_base, t.i1, t.i2, t.i3};
+  int checked = 0;
+  for (int j = 0; j < 4; ++j) {
+    const auto i = static_cast<std::size_t>(j);
+    if (fit.inertia.poorly_determined[i]) continue;
+    ++checked;
+    EXPECT_NEAR(fit.inertia.parameters[i], k * plant[j], 0.05 * k * plant[j])
+        << inertia_fit_parameter_name(j);
+  }
+  EXPECT_GE(checked, 3);
+  if (!fit.inertia.poorly_determined[kGammaOffs]) {
+    EXPECT_NEAR(fit.inertia.parameters[kGammaOffs], t.gamma_offs_rad,
+                std::max(deg_to_rad(1.0), 2.0 * fit.inertia.standard_errors[kGammaOffs]));
+  }
+  // Breakpoints the data pin down: near the truth's (the α-model is in the plant's family here).
+  for (std::size_t n = 1; n < 4; ++n) {
+    if (!fit.alpha.breakpoint_identifiable[n]) continue;
+    EXPECT_NEAR(fit.alpha.model.alpha[n], o.plant.alpha_model.alpha[n],
+                0.1 * o.plant.alpha_model.alpha[n]) << "alpha_" << n;
+  }
+  // The same data through the paper's pipeline as printed ((19)-(20) for a continuous loop, grid
+  // only, inertia from the linear fits): the α-model is off by well over 5 % along the data.
+  FitPipelineOptions paper = fast_options();
+  paper.loop_period_s = 0.0;
+  paper.refine_breakpoints = false;
+  paper.alpha_consistent_inertia = false;
+  const DatasetFit before = fit_dataset(g.index, g.runs, paper);
+  const Recovery rec_before = compare(plan, before);
+  EXPECT_GT(rec_before.c_max_rel, 0.1);
+  EXPECT_GT(rec_before.bt_max_rel, 0.05);
+}
+
+TEST(ParameterRecovery, CoulombFrictionIsModelErrorTheTorqueConstantStillRecovers) {
+  // With the bundled set's Coulomb friction (Fc = 0.004 V) the data carry extra damping
+  // β̃·4Fc/(π ω A0) (describing function) that depends on the velocity amplitude, not on α: the
+  // α-model absorbs it where it can, so C(α) is NOT expected within 5 % of the plant's α-model
+  // (10-20 % at the highest α, where C is smallest). β̃ is unaffected, and the local points read
+  // the effective damping the data carry.
+  const ExperimentPlan plan = make_experiment_plan(other_truth_options(12, true));
+  const GeneratedDataset g = generate_dataset(plan);
+  const DatasetFit fit = fit_dataset(g.index, g.runs, fast_options());
+  ASSERT_TRUE(fit.has_inertia_model && fit.alpha.ok);
+  const Recovery rec = compare(plan, fit);
+  print_recovery("other truth, seed 12, bundled effects (Coulomb)", fit, rec, plan);
+  EXPECT_LT(rec.bt_max_rel, 0.05);
+  EXPECT_GT(rec.c_max_rel, 0.05);  // the model error is real: if this fails, revisit the notes
+  EXPECT_NEAR(rec.c0_fit, rec.c0_ref_scaled, 0.08 * rec.c0_ref_scaled);
 }
 
 // Exploration table for the report: several seeds and truths, with and without the digital-loop
@@ -233,6 +338,54 @@ TEST(ParameterRecovery, DISABLED_Diagnose) {
                   sp.point.beta_data / fit.kp / truth.beta_tilde(a, it), fit.alpha.model.beta_tilde(a, pose.inertia) / truth.beta_tilde(a, it),
                   sp.point.physical ? "" : "NONPHYS");
     }
+  }
+}
+}  // namespace
+}  // namespace alphainv
+namespace alphainv {
+namespace {
+// Headline figures of the bundled set (paper plan, seed 1: bit-identical to data/omni_yaw_sim) for
+// the four modes, and the α-model's Table 8 phase error when the fitted model is simulated in the
+// DIGITAL loop (VirtualOmni, effects off) instead of the continuous validation simulator.
+TEST(ParameterRecovery, DISABLED_Headline) {
+  const ExperimentPlan plan = paper_experiment_plan(1);
+  const GeneratedDataset g = generate_dataset(plan);
+  for (int mode = 0; mode < 4; ++mode) {
+    FitPipelineOptions o;
+    o.threads = 2;
+    o.loop_period_s = mode == 0 ? 0.0 : std::nan("");
+    o.refine_breakpoints = mode >= 2;
+    o.alpha_consistent_inertia = mode >= 3;
+    const DatasetFit fit = fit_dataset(g.index, g.runs, o);
+    // Digital-loop validation of the α-model on the sine runs.
+    std::vector<double> pose_p90;
+    for (const PoseFit& pose : fit.poses) {
+      std::vector<double> ph;
+      for (std::size_t i : pose.runs) {
+        const RunInfo& run = g.index.runs[i];
+        if (run.kind != "sine" || !fit.has_inertia_model) continue;
+        VirtualOmniParams p;
+        p.inertia = fit.inertia.model.inertia;
+        p.alpha_model = fit.alpha.model;
+        p.gamma1_deg = *run.gamma1_deg;
+        p.gamma2_deg = *run.gamma2_deg;
+        VirtualOmni omni(p);
+        const RunData& d = g.runs[i];
+        const RunData s = run_closed_loop(omni, Controller{}, SineReference(0.07, *run.freq_hz),
+                                          d.t.back() - d.t.front());
+        const IndexRange win = steady_state_window(d.t, *run.freq_hz, 0.5 * d.t.back());
+        const FundamentalError e =
+            fundamental_error(d.t, d.r, d.theta, s.theta, *run.freq_hz, win.begin, win.end);
+        ph.push_back(e.phase_abs_error_deg);
+      }
+      if (!ph.empty()) pose_p90.push_back(percentile(ph, 90.0));
+    }
+    std::printf("  mode %d: ratio %.3f  lin step med %.5f  alpha step med %.5f  lin phase p90 %.2f  "
+                "alpha phase p90 %.2f  (digital-loop sim: alpha phase p90 %.2f)  C0 %.3f\n",
+                mode, fit.linear_errors.step_median_abs_err / fit.alpha_errors.step_median_abs_err,
+                fit.linear_errors.step_median_abs_err, fit.alpha_errors.step_median_abs_err,
+                fit.linear_errors.phase_p90_deg, fit.alpha_errors.phase_p90_deg,
+                pose_p90.empty() ? NAN : percentile(pose_p90, 50.0), fit.inertia.model.c0_bar);
   }
 }
 }  // namespace

@@ -74,8 +74,23 @@ void refit_inertia_with_alpha_model(DatasetFit& fit, std::vector<AlphaFitPose>& 
                     1.0 / (c0_first * inertia), 1.0 / inertia});
     }
     if (ip.size() < 6) break;
-    InertiaFitSummary s = fit_inertia_model(ip, InertiaFitOptions{});
+    const InertiaFitOptions iopt{};
+    InertiaFitSummary s = fit_inertia_model(ip, iopt);
     if (!s.converged) break;
+    // Each pose's information is in it twice (C passed consistent with β̃): the Ceres SEs assume
+    // 2n independent residuals and n_res − 6 degrees of freedom; really n poses, n − 5 for the shape.
+    const double n_poses = static_cast<double>(ip.size());
+    const double se_scale = n_poses > 5.0 ? std::sqrt((2.0 * n_poses - 6.0) / (n_poses - 5.0)) : kNaN;
+    for (int k = 0; k < kC0Bar; ++k) {
+      const auto i = static_cast<std::size_t>(k);
+      s.standard_errors[i] *= se_scale;
+      const bool se_bad = k == kGammaOffs
+                              ? !(s.standard_errors[i] <= iopt.poorly_determined_gamma_offs_se_rad)
+                              : !(s.standard_errors[i] <=
+                                  iopt.poorly_determined_relative_se * std::abs(s.parameters[i]));
+      s.poorly_determined[i] = s.poorly_determined[i] || se_bad;
+    }
+    s.covariance *= se_scale * se_scale;
     // C̄0 from the band's C_linear (eq. (29) with the new I), through the origin, with its SE.
     double sxx = 0.0, sxy = 0.0, ss = 0.0, sc = 0.0, sb = 0.0;
     std::size_t n = 0;
@@ -128,6 +143,68 @@ void refit_inertia_with_alpha_model(DatasetFit& fit, std::vector<AlphaFitPose>& 
       " %): (27)-(28) fitted to the per-pose inertia that best fits the α-model to the pose's "
       "points (scaled to the first fit's mean), C̄0 regressed on the band's C_linear with that I. "
       "Reason: β̃_linear = 1/I holds only at one α, and the band's α differs between poses");
+}
+
+/// Notes on what the data pin down: the inertia model's poorly determined parameters (its SEs and
+/// correlations), the α-model's breakpoints and coefficients against the data's α range and SEs.
+void identifiability_notes(DatasetFit& fit) {
+  if (fit.has_inertia_model) {
+    std::string bad;
+    for (int k = 0; k < kInertiaFitParameterCount; ++k) {
+      const auto i = static_cast<std::size_t>(k);
+      if (fit.inertia.poorly_determined[i]) {
+        bad += std::string(bad.empty() ? "" : ", ") + inertia_fit_parameter_name(k) + " (SE " +
+               format_g(fit.inertia.standard_errors[i]) + " on " + format_g(fit.inertia.parameters[i]) + ")";
+      }
+    }
+    fit.notes.push_back(
+        "identifiability, inertia model: " +
+        (bad.empty() ? std::string("every parameter has a relative SE below the threshold and no "
+                                   "correlation above 0.99")
+                     : "poorly determined: " + bad) +
+        ". The overall scale of I is not identifiable from any data (C = 1/(C_n1·I) and "
+        "β̃ = 1/(β̃_n1·I) are unchanged by I → kI, C_n1 → C_n1/k, β̃_n1 → β̃_n1/k); it is fixed by "
+        "β̃_linear = 1/I (eq. 25) on average over the poses");
+  }
+  if (fit.alpha.ok) {
+    const AlphaFitResult& a = fit.alpha;
+    const AlphaModel& m = a.model;
+    std::string pinned, free_bp, c_bad;
+    for (std::size_t k = 1; k < m.n_breakpoints; ++k) {
+      (a.breakpoint_identifiable[k] ? pinned : free_bp) +=
+          std::string((a.breakpoint_identifiable[k] ? pinned : free_bp).empty() ? "" : ", ") + "α" +
+          std::to_string(k) + " = " + format_g(m.alpha[k]);
+    }
+    for (std::size_t k = 0; k < m.n_breakpoints; ++k) {
+      if (!a.c_n1_identifiable[k]) {
+        c_bad += std::string(c_bad.empty() ? "" : ", ") + "C_" + std::to_string(k) + "1 (SE " +
+                 format_g(a.c_n1_se[k]) + " on " + format_g(m.c_n1[k]) + ")";
+      }
+    }
+    for (std::size_t k = 0; k < 2; ++k) {
+      if (!a.beta_n1_identifiable[k]) {
+        c_bad += std::string(c_bad.empty() ? "" : ", ") + "β̃_" + std::to_string(k) + "1 at ᾱ = " +
+                 format_g(m.beta_alpha[k]) + " (SE " + format_g(a.beta_n1_se[k]) + ")";
+      }
+    }
+    fit.notes.push_back(
+        "identifiability, α-model: the data cover α = " + format_g(a.alpha_data_min) + " … " +
+        format_g(a.alpha_data_max) + "; breakpoints with data on both sides (pinned): " +
+        (pinned.empty() ? "none" : pinned) + "; not pinned by the data: " +
+        (free_bp.empty() ? "none" : free_bp) +
+        (c_bad.empty() ? "; every C_n1, β̃_n1 is measured within the data with relative SE ≤ 10 %"
+                       : "; coefficients extrapolated beyond the data or with relative SE > 10 %: " +
+                             c_bad) +
+        ". Trust C(α, I), β̃(α, I) inside the α range, not single coefficients outside it");
+    fit.notes.push_back(
+        "α-model breakpoints: exhaustive grid search over " + std::to_string(a.candidates_tried) +
+        " sets, then " +
+        (a.refine_evaluations > 0
+             ? "NLopt Nelder-Mead on ln α from the grid winner (" +
+                   std::to_string(a.refine_evaluations) + " evaluations; score " +
+                   format_g(a.grid_score) + " → " + format_g(a.score) + ")"
+             : std::string("no refinement")));
+  }
 }
 
 }  // namespace
@@ -355,6 +432,7 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
       refit_inertia_with_alpha_model(fit, apose, apose_pose, aopt);
     }
     if (!fit.alpha.ok) fit.notes.push_back("α-invariant model not fitted: " + fit.alpha.message);
+    identifiability_notes(fit);
     if (!fit.has_inertia_model && apose.size() > 1) {
       fit.notes.push_back("without an inertia model the α-model is one model for all poses (I = 1)");
     }
