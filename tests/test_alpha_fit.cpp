@@ -1,11 +1,10 @@
-#include "alphainv/alpha_fit.hpp"
+#include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 
-#include <gtest/gtest.h>
-
+#include "alphainv/alpha_fit.hpp"
 #include "alphainv/inertia_model.hpp"
 #include "alphainv/simulate.hpp"
 
@@ -110,7 +109,8 @@ double max_damping_error_on_data(const std::vector<AlphaFitPose>& poses, const A
     }
     for (int k = 0; k <= 60; ++k) {
       const double a = lo * std::pow(hi / lo, k / 60.0);
-      worst = std::max(worst, std::abs(fit.damping(a, pose.inertia) / truth.damping(a, pose.inertia) - 1));
+      worst = std::max(worst,
+                       std::abs(fit.damping(a, pose.inertia) / truth.damping(a, pose.inertia) - 1));
     }
   }
   return worst;
@@ -139,10 +139,11 @@ TEST(AlphaFit, NelderMeadRefinementMovesBreakpointsOffTheGridTowardsTheTruth) {
   EXPECT_LT(r.score, 0.5 * g.score);
   const double err_grid = max_damping_error_on_data(poses, g.model, truth);
   const double err_refined = max_damping_error_on_data(poses, r.model, truth);
-  std::printf("  [refinement] score %.3g -> %.3g, max C(alpha) error on the data %.2f %% -> %.2f %%, "
-              "breakpoints %.3g %.3g %.3g (data alpha %.3g ... %.3g)\n",
-              g.score, r.score, 100 * err_grid, 100 * err_refined, r.model.alpha[1],
-              r.model.alpha[2], r.model.alpha[3], r.alpha_data_min, r.alpha_data_max);
+  std::printf(
+      "  [refinement] score %.3g -> %.3g, max C(alpha) error on the data %.2f %% -> %.2f %%, "
+      "breakpoints %.3g %.3g %.3g (data alpha %.3g ... %.3g)\n",
+      g.score, r.score, 100 * err_grid, 100 * err_refined, r.model.alpha[1], r.model.alpha[2],
+      r.model.alpha[3], r.alpha_data_min, r.alpha_data_max);
   EXPECT_LT(err_refined, err_grid);
   EXPECT_LT(err_refined, 0.02);
   // The truth's α3 = 300 is above every α of the sweep: wherever the search puts α3, it is flagged

@@ -1,13 +1,12 @@
-#include "alphainv/identify.hpp"
+#include <gtest/gtest.h>
 
+#include <Eigen/Dense>
 #include <cmath>
 #include <complex>
 #include <random>
-
-#include <Eigen/Dense>
 #include <unsupported/Eigen/MatrixFunctions>
-#include <gtest/gtest.h>
 
+#include "alphainv/identify.hpp"
 #include "alphainv/reference.hpp"
 #include "alphainv/virtual_omni.hpp"
 
@@ -104,7 +103,6 @@ TEST(Identify, SteadyStateWindowIsWholePeriodsAtTheEnd) {
   EXPECT_EQ(steady_state_window(t, 0.1, 2.0).size(), 0u);  // shorter than one period
 }
 
-
 // --- the digital loop: exact sampled-data inversion ----------------------------------------------
 
 /// Exact ZOH discretisation of θ̈ + Cθ̇ = u over one tick, as a transfer function u_k → θ_k at
@@ -132,7 +130,8 @@ TEST(IdentifySampled, LoopShapeIsTheZohDiscretisationAndTendsToTheContinuousLoop
         EXPECT_LT(std::abs(g / ref - 1.0), 1e-9) << c << " " << f << " " << t;
       }
       // T → 0: the continuous 1/(jω(jω + C)) of eq. (13), with the ZOH's lag ωT/2 vanishing.
-      const std::complex<double> cont = 1.0 / (std::complex<double>(0, w) * std::complex<double>(c, w));
+      const std::complex<double> cont =
+          1.0 / (std::complex<double>(0, w) * std::complex<double>(c, w));
       EXPECT_LT(std::abs(sampled_loop_shape(c, w, 1e-7) / cont - 1.0), 1e-5) << c << " " << f;
     }
   }
@@ -207,16 +206,18 @@ TEST(IdentifySampled, CorrectedPointsRecoverTheVirtualPlantsLinearCAndBeta) {
         ASSERT_TRUE(pt.physical && pt.sampled_exact) << g1 << " " << f;
         EXPECT_NEAR(pt.c_data, c, 5e-3 * c) << g1 << "/" << g2 << " T " << t << " f " << f;
         EXPECT_NEAR(pt.beta_data, beta, 5e-3 * beta) << g1 << "/" << g2 << " T " << t << " f " << f;
-        worst_corrected = std::max({worst_corrected, std::abs(pt.c_data / c - 1.0),
-                                    std::abs(pt.beta_data / beta - 1.0)});
+        worst_corrected = std::max(
+            {worst_corrected, std::abs(pt.c_data / c - 1.0), std::abs(pt.beta_data / beta - 1.0)});
         if (f == 7.0) {
           worst_printed_7hz = std::min(worst_printed_7hz, std::abs(pt.c_data_continuous / c - 1.0));
         }
       }
     }
   }
-  std::printf("  [sampled-data inversion] worst |C, beta error| %.2e; printed (19) at 7 Hz off by "
-              ">= %.1f %%\n", worst_corrected, 100 * worst_printed_7hz);
+  std::printf(
+      "  [sampled-data inversion] worst |C, beta error| %.2e; printed (19) at 7 Hz off by "
+      ">= %.1f %%\n",
+      worst_corrected, 100 * worst_printed_7hz);
   EXPECT_GT(worst_printed_7hz, 0.03);  // the bias the correction removes: several per cent
 }
 

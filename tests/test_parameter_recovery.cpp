@@ -6,19 +6,19 @@
 //     of α between the pose's smallest and largest α_data). The breakpoints come off a search and
 //     trade off against the C_n1, so single C_n1 are not comparable; the functions are.
 //   - C̄0 against the C̄0 the truth implies on the same frequency band: the plant is an α-model, so
-//     its "linear model" is the regression (22) on the truth's own C(α_data, I), β(α_data, I) at the
-//     band's points (with the paper's truth this is close to, but not exactly, 36.694).
+//     its "linear model" is the regression (22) on the truth's own C(α_data, I), β(α_data, I) at
+//     the band's points (with the paper's truth this is close to, but not exactly, 36.694).
 //   - The inertia model's parameters one by one, where the fit's standard errors call them
 //     identifiable; the reference is the inertia fit (27)-(29) to the truth-implied linear models
 //     (β̃_linear = 1/I makes I absorb β̃_n1(α_band), so the plant's I is not the reference).
+
+#include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <string>
 #include <vector>
-
-#include <gtest/gtest.h>
 
 #include "alphainv/experiment_plan.hpp"
 #include "alphainv/fit_pipeline.hpp"
@@ -43,15 +43,15 @@ ExperimentPlanOptions other_truth_options(std::uint64_t seed, bool effects) {
   a.beta_n1 = {0.9, 1.25};
   o.plant.alpha_model = a;
   o.plant.inertia = InertiaModel{1.2e-3, 3.2e-3, 1.1e-3, 2.5e-3, deg_to_rad(5.0)};
-  o.sine_poses = {{30, 65}, {30, 95}, {30, 120}, {50, 65}, {50, 95},
-                  {50, 120}, {70, 65}, {70, 95}, {70, 120}};
+  o.sine_poses = {{30, 65},  {30, 95}, {30, 120}, {50, 65}, {50, 95},
+                  {50, 120}, {70, 65}, {70, 95},  {70, 120}};
   o.square_poses = o.sine_poses;
   return o;
 }
 
 struct Recovery {
-  double c_max_rel = 0.0;   ///< max over poses and covered α of |C_fit/C_true − 1|
-  double bt_max_rel = 0.0;  ///< same for β̃
+  double c_max_rel = 0.0;              ///< max over poses and covered α of |C_fit/C_true − 1|
+  double bt_max_rel = 0.0;             ///< same for β̃
   double c_max_rel_alpha_ge_10 = 0.0;  ///< the same over α ≥ 10 only
   /// max over the data points of |C_fit(α_k, I)/C_eff,k − 1|, C_eff the truth plus the Coulomb
   /// friction's describing function β̃·4Fc/(π ω A0) (A0: the point's θ amplitude): the damping the
@@ -62,7 +62,7 @@ struct Recovery {
   /// C̄0 the truth implies with the fit's inertia convention: eq. (29) regression β̃ = C̄0·C with
   /// β̃ = 1/(k·I_true) (k: inertia_scale) and the truth's band C_linear.
   double c0_ref_scaled = NAN;
-  InertiaFitSummary inertia_ref;  ///< inertia fit to the truth-implied linear models
+  InertiaFitSummary inertia_ref;           ///< inertia fit to the truth-implied linear models
   std::vector<double> alpha_lo, alpha_hi;  ///< covered α per fitted pose
 };
 
@@ -107,12 +107,14 @@ Recovery compare(const ExperimentPlan& plan, const DatasetFit& fit) {
         const double c_eff = truth.damping(a, pp->inertia) +
                              truth.beta_tilde(a, pp->inertia) * 4.0 *
                                  plan.options.plant.effects.coulomb_v / (kPi * w * a0);
-        rec.c_max_rel_effective = std::max(
-            rec.c_max_rel_effective, std::abs(fit.alpha.model.damping(a, pose.inertia) / c_eff - 1));
+        rec.c_max_rel_effective =
+            std::max(rec.c_max_rel_effective,
+                     std::abs(fit.alpha.model.damping(a, pose.inertia) / c_eff - 1));
         rec.c_data_max_rel_effective =
             std::max(rec.c_data_max_rel_effective, std::abs(sp.point.c_data / c_eff - 1));
       }
-      if (sp.point.freq_hz >= pose.band_lo_hz - 1e-9 && sp.point.freq_hz <= pose.band_hi_hz + 1e-9) {
+      if (sp.point.freq_hz >= pose.band_lo_hz - 1e-9 &&
+          sp.point.freq_hz <= pose.band_hi_hz + 1e-9) {
         // The truth's own point: C, β of the plant at this α, as a continuous-loop response.
         const double c = truth.damping(sp.point.alpha_data, pp->inertia);
         const double beta = fit.kp * truth.beta_tilde(sp.point.alpha_data, pp->inertia);
@@ -164,18 +166,21 @@ FitPipelineOptions fast_options() {
   return o;
 }
 
-
 void print_recovery(const char* label, const DatasetFit& fit, const Recovery& rec,
                     const ExperimentPlan& plan) {
   const AlphaModel& a = fit.alpha.model;
-  std::printf("  [%s] T=%.3g ms score %.3g->%.3g  C(a) max err %.2f %% (a>=10: %.2f %%; vs C_eff at "
-              "points: model %.2f %%, C_data %.2f %%)  bt(a) max err %.2f %%  C0 fit %.3f ref %.3f (%.2f %%) ref(I conv.) %.3f (%.2f %%)\n      breakpoints %.3g %.3g %.3g %.3g  c_n1 %.4g %.4g %.4g %.4g  bt_n1 "
-              "%.4g %.4g\n",
-              label, 1e3 * fit.loop_period_s, fit.alpha.grid_score, fit.alpha.score, 100 * rec.c_max_rel, 100 * rec.c_max_rel_alpha_ge_10,
-              100 * rec.c_max_rel_effective, 100 * rec.c_data_max_rel_effective,
-              100 * rec.bt_max_rel, rec.c0_fit, rec.c0_ref, 100 * (rec.c0_fit / rec.c0_ref - 1),
-              rec.c0_ref_scaled, 100 * (rec.c0_fit / rec.c0_ref_scaled - 1), a.alpha[0], a.alpha[1], a.alpha[2],
-              a.alpha[3], a.c_n1[0], a.c_n1[1], a.c_n1[2], a.c_n1[3], a.beta_n1[0], a.beta_n1[1]);
+  std::printf(
+      "  [%s] T=%.3g ms score %.3g->%.3g  C(a) max err %.2f %% (a>=10: %.2f %%; vs C_eff at "
+      "points: model %.2f %%, C_data %.2f %%)  bt(a) max err %.2f %%  C0 fit %.3f ref %.3f (%.2f "
+      "%%) ref(I conv.) %.3f (%.2f %%)\n      breakpoints %.3g %.3g %.3g %.3g  c_n1 %.4g %.4g %.4g "
+      "%.4g  bt_n1 "
+      "%.4g %.4g\n",
+      label, 1e3 * fit.loop_period_s, fit.alpha.grid_score, fit.alpha.score, 100 * rec.c_max_rel,
+      100 * rec.c_max_rel_alpha_ge_10, 100 * rec.c_max_rel_effective,
+      100 * rec.c_data_max_rel_effective, 100 * rec.bt_max_rel, rec.c0_fit, rec.c0_ref,
+      100 * (rec.c0_fit / rec.c0_ref - 1), rec.c0_ref_scaled,
+      100 * (rec.c0_fit / rec.c0_ref_scaled - 1), a.alpha[0], a.alpha[1], a.alpha[2], a.alpha[3],
+      a.c_n1[0], a.c_n1[1], a.c_n1[2], a.c_n1[3], a.beta_n1[0], a.beta_n1[1]);
   if (fit.has_inertia_model) {
     const double k_scale = inertia_scale(plan, fit);
     const InertiaModel& t = plan.options.plant.inertia;
@@ -183,14 +188,14 @@ void print_recovery(const char* label, const DatasetFit& fit, const Recovery& re
     for (int k = 0; k < kInertiaFitParameterCount; ++k) {
       const auto i = static_cast<std::size_t>(k);
       const double truth = k < 4 ? k_scale * plant[k] : k == 4 ? plant[4] : NAN;
-      std::printf("      %-10s fit %.5g ± %.2g (%s)  lin-ref %.5g (%+.2f %%)  plant×%.3f %.5g "
-                  "(%+.2f %%)\n",
-                  inertia_fit_parameter_name(k), fit.inertia.parameters[i],
-                  fit.inertia.standard_errors[i],
-                  fit.inertia.poorly_determined[i] ? "poorly determined" : "identifiable",
-                  rec.inertia_ref.parameters[i],
-                  100 * (fit.inertia.parameters[i] / rec.inertia_ref.parameters[i] - 1), k_scale,
-                  truth, 100 * (fit.inertia.parameters[i] / truth - 1));
+      std::printf(
+          "      %-10s fit %.5g ± %.2g (%s)  lin-ref %.5g (%+.2f %%)  plant×%.3f %.5g "
+          "(%+.2f %%)\n",
+          inertia_fit_parameter_name(k), fit.inertia.parameters[i], fit.inertia.standard_errors[i],
+          fit.inertia.poorly_determined[i] ? "poorly determined" : "identifiable",
+          rec.inertia_ref.parameters[i],
+          100 * (fit.inertia.parameters[i] / rec.inertia_ref.parameters[i] - 1), k_scale, truth,
+          100 * (fit.inertia.parameters[i] / truth - 1));
     }
   }
 }
@@ -236,7 +241,8 @@ TEST(ParameterRecovery, AnotherTruthFromNoisyDigitalLoopDataWithinFivePercent) {
   for (std::size_t n = 1; n < 4; ++n) {
     if (!fit.alpha.breakpoint_identifiable[n]) continue;
     EXPECT_NEAR(fit.alpha.model.alpha[n], o.plant.alpha_model.alpha[n],
-                0.1 * o.plant.alpha_model.alpha[n]) << "alpha_" << n;
+                0.1 * o.plant.alpha_model.alpha[n])
+        << "alpha_" << n;
   }
   // The same data through the paper's pipeline as printed ((19)-(20) for a continuous loop, grid
   // only, inertia from the linear fits): the α-model is off by well over 5 % along the data.
@@ -304,42 +310,13 @@ TEST(ParameterRecovery, DISABLED_Table) {
       const Recovery rec = compare(plan, fit);
       const char* modes[] = {"before: (19)-(20), grid", "ZOH-corrected, grid",
                              "ZOH-corrected, grid+NM", "ZOH, grid+NM, alpha-consistent I"};
-      const std::string label = std::string(c.name) + ", seed " + std::to_string(c.options.seed) +
-                                ", " + modes[mode];
+      const std::string label =
+          std::string(c.name) + ", seed " + std::to_string(c.options.seed) + ", " + modes[mode];
       print_recovery(label.c_str(), fit, rec, plan);
     }
   }
 }
 
-}  // namespace
-}  // namespace alphainv
-namespace alphainv {
-namespace {
-TEST(ParameterRecovery, DISABLED_Diagnose) {
-  const ExperimentPlan plan = make_experiment_plan(other_truth_options(7, false));
-  const GeneratedDataset g = generate_dataset(plan);
-  FitPipelineOptions o = fast_options();
-  const DatasetFit fit = fit_dataset(g.index, g.runs, o);
-  const AlphaModel& truth = plan.options.plant.alpha_model;
-  for (std::size_t p = 0; p < fit.poses.size(); ++p) {
-    const PoseFit& pose = fit.poses[p];
-    if (!pose.gamma1_deg) continue;
-    double it = 0;
-    for (const auto& q : plan.poses)
-      if (std::abs(q.gamma1_deg - *pose.gamma1_deg) < 1e-6 && std::abs(q.gamma2_deg - *pose.gamma2_deg) < 1e-6) it = q.inertia;
-    bool any = false;
-    for (const auto& sp : fit.sine_points) {
-      if (sp.pose != p) continue;
-      if (!any) std::printf("pose %.2f/%.2f  I_fit/I_true %.4f\n", *pose.gamma1_deg, *pose.gamma2_deg, pose.inertia / it);
-      any = true;
-      const double a = sp.point.alpha_data;
-      std::printf("   f %.1f a %8.3f  Cdata/Ctrue %.4f  Cfit/Ctrue %.4f  bdata/btrue %.4f  bfit/btrue %.4f %s\n", sp.point.freq_hz, a,
-                  sp.point.c_data / truth.damping(a, it), fit.alpha.model.damping(a, pose.inertia) / truth.damping(a, it),
-                  sp.point.beta_data / fit.kp / truth.beta_tilde(a, it), fit.alpha.model.beta_tilde(a, pose.inertia) / truth.beta_tilde(a, it),
-                  sp.point.physical ? "" : "NONPHYS");
-    }
-  }
-}
 }  // namespace
 }  // namespace alphainv
 namespace alphainv {
@@ -380,12 +357,13 @@ TEST(ParameterRecovery, DISABLED_Headline) {
       }
       if (!ph.empty()) pose_p90.push_back(percentile(ph, 90.0));
     }
-    std::printf("  mode %d: ratio %.3f  lin step med %.5f  alpha step med %.5f  lin phase p90 %.2f  "
-                "alpha phase p90 %.2f  (digital-loop sim: alpha phase p90 %.2f)  C0 %.3f\n",
-                mode, fit.linear_errors.step_median_abs_err / fit.alpha_errors.step_median_abs_err,
-                fit.linear_errors.step_median_abs_err, fit.alpha_errors.step_median_abs_err,
-                fit.linear_errors.phase_p90_deg, fit.alpha_errors.phase_p90_deg,
-                pose_p90.empty() ? NAN : percentile(pose_p90, 50.0), fit.inertia.model.c0_bar);
+    std::printf(
+        "  mode %d: ratio %.3f  lin step med %.5f  alpha step med %.5f  lin phase p90 %.2f  "
+        "alpha phase p90 %.2f  (digital-loop sim: alpha phase p90 %.2f)  C0 %.3f\n",
+        mode, fit.linear_errors.step_median_abs_err / fit.alpha_errors.step_median_abs_err,
+        fit.linear_errors.step_median_abs_err, fit.alpha_errors.step_median_abs_err,
+        fit.linear_errors.phase_p90_deg, fit.alpha_errors.phase_p90_deg,
+        pose_p90.empty() ? NAN : percentile(pose_p90, 50.0), fit.inertia.model.c0_bar);
   }
 }
 }  // namespace

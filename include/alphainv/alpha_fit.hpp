@@ -60,10 +60,11 @@ struct AlphaFitResult {
   /// say anything about C(α) and β̃(α).
   double alpha_data_min = 0.0, alpha_data_max = 0.0;
   /// Breakpoint n's position is pinned by data: physical points lie on both sides of it within its
-  /// neighbouring segments. α0 = 0 is a convention (C held below), never "pinned"; a breakpoint above
-  /// alpha_data_max is not identifiable (only the line through the last points is).
+  /// neighbouring segments. α0 = 0 is a convention (C held below), never "pinned"; a breakpoint
+  /// above alpha_data_max is not identifiable (only the line through the last points is).
   std::array<bool, kMaxBreakpoints> breakpoint_identifiable{};
-  /// C_n1 identifiable: relative SE ≤ identifiable_relative_se and data on its hat function's support.
+  /// C_n1 identifiable: relative SE ≤ identifiable_relative_se and data on its hat function's
+  /// support.
   std::array<bool, kMaxBreakpoints> c_n1_identifiable{};
   /// β̃_n1 identifiable: relative SE small and its ᾱ within or at the data's α range (ᾱ1 = α_{N−1}
   /// above alpha_data_max is an extrapolation of the line fitted to the data).

@@ -1,12 +1,12 @@
 #include "alphainv/alpha_fit.hpp"
 
+#include <nlopt.h>
+
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <functional>
 #include <limits>
-
-#include <Eigen/Dense>
-#include <nlopt.h>
 
 namespace alphainv {
 
@@ -61,7 +61,8 @@ void assess_identifiability(const std::vector<AlphaFitPose>& poses, const AlphaF
   std::vector<double> alphas;
   for (const AlphaFitPose& pose : poses) {
     for (const auto& p : pose.points) {
-      if (p.physical && std::isfinite(p.alpha_data) && pose.inertia > 0.0) alphas.push_back(p.alpha_data);
+      if (p.physical && std::isfinite(p.alpha_data) && pose.inertia > 0.0)
+        alphas.push_back(p.alpha_data);
     }
   }
   if (alphas.empty() || n < 2) return;
@@ -224,7 +225,8 @@ AlphaFitResult fit_alpha_model_at(const std::vector<AlphaFitPose>& poses,
   out.points_used = count;
   out.c_rms_relative = std::sqrt(sc / static_cast<double>(count));
   out.beta_rms_relative = std::sqrt(sb / static_cast<double>(count));
-  out.score = out.c_rms_relative * out.c_rms_relative + out.beta_rms_relative * out.beta_rms_relative;
+  out.score =
+      out.c_rms_relative * out.c_rms_relative + out.beta_rms_relative * out.beta_rms_relative;
   out.ok = model.valid();
   out.message = out.ok ? "ok" : "the fitted model is not valid (non-positive coefficients)";
   assess_identifiability(poses, options, out);
@@ -238,7 +240,7 @@ std::vector<double> alpha_model_pose_inertia(const std::vector<AlphaFitPose>& po
     double sxx = 0.0, sx = 0.0;
     for (const auto& p : pose.points) {
       if (!p.physical || !std::isfinite(p.alpha_data) || !(p.beta_data > 0.0)) continue;
-      const double xc = model.damping(p.alpha_data, 1.0) / p.c_data;           // c(α)/C_data
+      const double xc = model.damping(p.alpha_data, 1.0) / p.c_data;             // c(α)/C_data
       const double xb = model.beta_tilde(p.alpha_data, 1.0) * kp / p.beta_data;  // b(α)/β̃_data
       sxx += xc * xc + xb * xb;
       sx += xc + xb;

@@ -78,9 +78,11 @@ void refit_inertia_with_alpha_model(DatasetFit& fit, std::vector<AlphaFitPose>& 
     InertiaFitSummary s = fit_inertia_model(ip, iopt);
     if (!s.converged) break;
     // Each pose's information is in it twice (C passed consistent with β̃): the Ceres SEs assume
-    // 2n independent residuals and n_res − 6 degrees of freedom; really n poses, n − 5 for the shape.
+    // 2n independent residuals and n_res − 6 degrees of freedom; really n poses, n − 5 for the
+    // shape.
     const double n_poses = static_cast<double>(ip.size());
-    const double se_scale = n_poses > 5.0 ? std::sqrt((2.0 * n_poses - 6.0) / (n_poses - 5.0)) : kNaN;
+    const double se_scale =
+        n_poses > 5.0 ? std::sqrt((2.0 * n_poses - 6.0) / (n_poses - 5.0)) : kNaN;
     for (int k = 0; k < kC0Bar; ++k) {
       const auto i = static_cast<std::size_t>(k);
       s.standard_errors[i] *= se_scale;
@@ -96,7 +98,8 @@ void refit_inertia_with_alpha_model(DatasetFit& fit, std::vector<AlphaFitPose>& 
     std::size_t n = 0;
     for (const PoseFit& pose : fit.poses) {
       if (!pose.linear.valid || !pose.gamma1_deg) continue;
-      const double i = s.model.inertia.inertia(deg_to_rad(*pose.gamma1_deg), deg_to_rad(*pose.gamma2_deg));
+      const double i =
+          s.model.inertia.inertia(deg_to_rad(*pose.gamma1_deg), deg_to_rad(*pose.gamma2_deg));
       sxx += pose.linear.c_linear * pose.linear.c_linear;
       sxy += pose.linear.c_linear / i;
       ++n;
@@ -104,7 +107,8 @@ void refit_inertia_with_alpha_model(DatasetFit& fit, std::vector<AlphaFitPose>& 
     const double c0 = sxy / sxx;
     for (const PoseFit& pose : fit.poses) {
       if (!pose.linear.valid || !pose.gamma1_deg) continue;
-      const double i = s.model.inertia.inertia(deg_to_rad(*pose.gamma1_deg), deg_to_rad(*pose.gamma2_deg));
+      const double i =
+          s.model.inertia.inertia(deg_to_rad(*pose.gamma1_deg), deg_to_rad(*pose.gamma2_deg));
       ss += std::pow(1.0 / i - c0 * pose.linear.c_linear, 2);
       sc += std::pow(1.0 / (c0 * i * pose.linear.c_linear) - 1.0, 2);
       sb += std::pow(1.0 / (i * pose.linear.beta_tilde_linear) - 1.0, 2);
@@ -121,7 +125,8 @@ void refit_inertia_with_alpha_model(DatasetFit& fit, std::vector<AlphaFitPose>& 
     for (std::size_t k = 0; k < apose.size(); ++k) {
       const PoseFit& pose = fit.poses[pose_of[k]];
       if (!pose.gamma1_deg) continue;
-      next[k].inertia = s.model.inertia.inertia(deg_to_rad(*pose.gamma1_deg), deg_to_rad(*pose.gamma2_deg));
+      next[k].inertia =
+          s.model.inertia.inertia(deg_to_rad(*pose.gamma1_deg), deg_to_rad(*pose.gamma2_deg));
       change = std::max(change, std::abs(next[k].inertia / apose[k].inertia - 1.0));
     }
     AlphaFitResult a = fit_alpha_model(next, aopt);
@@ -154,7 +159,8 @@ void identifiability_notes(DatasetFit& fit) {
       const auto i = static_cast<std::size_t>(k);
       if (fit.inertia.poorly_determined[i]) {
         bad += std::string(bad.empty() ? "" : ", ") + inertia_fit_parameter_name(k) + " (SE " +
-               format_g(fit.inertia.standard_errors[i]) + " on " + format_g(fit.inertia.parameters[i]) + ")";
+               format_g(fit.inertia.standard_errors[i]) + " on " +
+               format_g(fit.inertia.parameters[i]) + ")";
       }
     }
     fit.notes.push_back(
@@ -183,27 +189,27 @@ void identifiability_notes(DatasetFit& fit) {
     }
     for (std::size_t k = 0; k < 2; ++k) {
       if (!a.beta_n1_identifiable[k]) {
-        c_bad += std::string(c_bad.empty() ? "" : ", ") + "β̃_" + std::to_string(k) + "1 at ᾱ = " +
-                 format_g(m.beta_alpha[k]) + " (SE " + format_g(a.beta_n1_se[k]) + ")";
+        c_bad += std::string(c_bad.empty() ? "" : ", ") + "β̃_" + std::to_string(k) +
+                 "1 at ᾱ = " + format_g(m.beta_alpha[k]) + " (SE " + format_g(a.beta_n1_se[k]) +
+                 ")";
       }
     }
     fit.notes.push_back(
         "identifiability, α-model: the data cover α = " + format_g(a.alpha_data_min) + " … " +
-        format_g(a.alpha_data_max) + "; breakpoints with data on both sides (pinned): " +
-        (pinned.empty() ? "none" : pinned) + "; not pinned by the data: " +
-        (free_bp.empty() ? "none" : free_bp) +
-        (c_bad.empty() ? "; every C_n1, β̃_n1 is measured within the data with relative SE ≤ 10 %"
-                       : "; coefficients extrapolated beyond the data or with relative SE > 10 %: " +
-                             c_bad) +
+        format_g(a.alpha_data_max) +
+        "; breakpoints with data on both sides (pinned): " + (pinned.empty() ? "none" : pinned) +
+        "; not pinned by the data: " + (free_bp.empty() ? "none" : free_bp) +
+        (c_bad.empty()
+             ? "; every C_n1, β̃_n1 is measured within the data with relative SE ≤ 10 %"
+             : "; coefficients extrapolated beyond the data or with relative SE > 10 %: " + c_bad) +
         ". Trust C(α, I), β̃(α, I) inside the α range, not single coefficients outside it");
-    fit.notes.push_back(
-        "α-model breakpoints: exhaustive grid search over " + std::to_string(a.candidates_tried) +
-        " sets, then " +
-        (a.refine_evaluations > 0
-             ? "NLopt Nelder-Mead on ln α from the grid winner (" +
-                   std::to_string(a.refine_evaluations) + " evaluations; score " +
-                   format_g(a.grid_score) + " → " + format_g(a.score) + ")"
-             : std::string("no refinement")));
+    fit.notes.push_back("α-model breakpoints: exhaustive grid search over " +
+                        std::to_string(a.candidates_tried) + " sets, then " +
+                        (a.refine_evaluations > 0
+                             ? "NLopt Nelder-Mead on ln α from the grid winner (" +
+                                   std::to_string(a.refine_evaluations) + " evaluations; score " +
+                                   format_g(a.grid_score) + " → " + format_g(a.score) + ")"
+                             : std::string("no refinement")));
   }
 }
 
@@ -269,8 +275,9 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
   // A digital loop (controller tick T, command held) biases (19)-(20); local_linear_point() undoes
   // it exactly when T is known: from the options, else from the dataset's sample rate.
   if (std::isnan(options.loop_period_s)) {
-    fit.loop_period_s =
-        dataset.sample_rate_hz && *dataset.sample_rate_hz > 0.0 ? 1.0 / *dataset.sample_rate_hz : 0.0;
+    fit.loop_period_s = dataset.sample_rate_hz && *dataset.sample_rate_hz > 0.0
+                            ? 1.0 / *dataset.sample_rate_hz
+                            : 0.0;
   } else {
     fit.loop_period_s = std::max(0.0, options.loop_period_s);
   }

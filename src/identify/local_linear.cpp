@@ -1,8 +1,7 @@
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <complex>
-
-#include <Eigen/Dense>
 
 #include "alphainv/identify.hpp"
 
@@ -94,13 +93,14 @@ bool sampled_loop_c_beta(double omega_rad_s, double a1, double a2, double ar,
   // First order (ZOH ≈ delay T/2): C_cont = (C − ω²T/2)/(1 + CT/2), β_cont = β/(1 + CT/2),
   // inverted. Also the fallback.
   const double den = a1 * a1 + a2 * (a2 - ar);
-  const double c_cont = -w * ar * a1 / den;                  // eq. (19)
+  const double c_cont = -w * ar * a1 / den;                    // eq. (19)
   const double beta_cont = w * w * (a1 * a1 + a2 * a2) / den;  // eq. (20)
   const double c_first = (c_cont + w * w * t / 2.0) / (1.0 - c_cont * t / 2.0);
   c_per_s = c_first;
   beta_per_s2 = beta_cont * (1.0 + c_first * t / 2.0);
   if (!(t > 0.0) || !(w > 0.0) || !std::isfinite(c_first) || !(c_first > 0.0)) return false;
-  // Measured loop gain: H = θ/r = (A2 + jA1)/Ar at the samples (θ = Im(H Ar e^{jωt})), L = H/(1 − H).
+  // Measured loop gain: H = θ/r = (A2 + jA1)/Ar at the samples (θ = Im(H Ar e^{jωt})), L = H/(1 −
+  // H).
   const cd h = cd(a2, a1) / ar;
   const cd l = h / (1.0 - h);
   // Residual: the phase of L/g(C), wrapped; zero at the plant's C. It increases with C (for the
@@ -144,8 +144,8 @@ LocalLinearPoint local_linear_point(double freq_hz, double a1, double a2, double
   p.ar = ar;
   const double w = p.omega_rad_s;
   const double den = a1 * a1 + a2 * (a2 - ar);
-  p.c_data_continuous = -w * ar * a1 / den;                    // eq. (19)
-  p.beta_data_continuous = w * w * (a1 * a1 + a2 * a2) / den;  // eq. (20)
+  p.c_data_continuous = -w * ar * a1 / den;                            // eq. (19)
+  p.beta_data_continuous = w * w * (a1 * a1 + a2 * a2) / den;          // eq. (20)
   p.alpha_data = kp * kp * w * w * (a1 * a1 + (ar - a2) * (ar - a2));  // eq. (36)
   p.c_data = p.c_data_continuous;
   p.beta_data = p.beta_data_continuous;
@@ -163,8 +163,8 @@ LocalLinearPoint local_linear_point(double freq_hz, double a1, double a2, double
     p.a1_continuous = hc.imag();
     p.a2_continuous = hc.real();
   }
-  p.physical = denominator_ok && p.c_data > 0.0 && p.beta_data > 0.0 &&
-               std::isfinite(p.c_data) && std::isfinite(p.beta_data);
+  p.physical = denominator_ok && p.c_data > 0.0 && p.beta_data > 0.0 && std::isfinite(p.c_data) &&
+               std::isfinite(p.beta_data);
   return p;
 }
 
