@@ -60,8 +60,9 @@ struct AlphaFitResult {
   /// say anything about C(α) and β̃(α).
   double alpha_data_min = 0.0, alpha_data_max = 0.0;
   /// Breakpoint n's position is pinned by data: physical points lie on both sides of it within its
-  /// neighbouring segments. α0 = 0 is a convention (C held below), never "pinned"; a breakpoint
-  /// above alpha_data_max is not identifiable (only the line through the last points is).
+  /// neighbouring segments (the top one: two or more points above it, reaching 1.5·α_{N−1}). α0 = 0
+  /// is a convention (C held below), never "pinned"; a top breakpoint near or above the data's top
+  /// is not identifiable (only the line through the last points is), nor is its C_n1.
   std::array<bool, kMaxBreakpoints> breakpoint_identifiable{};
   /// C_n1 identifiable: relative SE ≤ identifiable_relative_se and data on its hat function's
   /// support.

@@ -78,11 +78,18 @@ void assess_identifiability(const std::vector<AlphaFitPose>& poses, const AlphaF
   for (std::size_t k = 0; k < n; ++k) {
     const double below = k > 0 ? m.alpha[k - 1] : -inf;
     const double above = k + 1 < n ? m.alpha[k + 1] : inf;
+    // The top breakpoint starts the held segment: only data well above it (two or more points, up
+    // to 1.5·α_k) show the hold; with fewer, any α_k near or above the data's top fits as well
+    // (with C_k moved along the last line), so neither α_k nor C_k is pinned.
+    const bool top = k + 1 == n;
     out.breakpoint_identifiable[k] =
-        k > 0 && count_in(below, m.alpha[k]) > 0 && count_in(m.alpha[k], above) > 0;
+        k > 0 && count_in(below, m.alpha[k]) > 0 &&
+        (top ? count_in(m.alpha[k], above) >= 2 && out.alpha_data_max >= 1.5 * m.alpha[k]
+             : count_in(m.alpha[k], above) > 0);
     // C_k at α_k is measured, not extrapolated, when α_k lies within the data (α0 = 0: when the
     // first segment holds points, C_0 is its line's mild extrapolation to α = 0).
     const bool supported = k == 0 ? count_in(-inf, m.alpha[1]) >= 2
+                           : top  ? out.breakpoint_identifiable[k]
                                   : m.alpha[k] <= out.alpha_data_max && count_in(below, above) > 0;
     out.c_n1_identifiable[k] = supported && se_ok(m.c_n1[k], out.c_n1_se[k]);
   }

@@ -201,7 +201,9 @@ void identifiability_notes(DatasetFit& fit) {
         "; not pinned by the data: " + (free_bp.empty() ? "none" : free_bp) +
         (c_bad.empty()
              ? "; every C_n1, β̃_n1 is measured within the data with relative SE ≤ 10 %"
-             : "; coefficients extrapolated beyond the data or with relative SE > 10 %: " + c_bad) +
+             : "; coefficients not identifiable (extrapolated beyond the data, tied to an unpinned "
+               "top breakpoint, or relative SE > 10 %): " +
+                   c_bad) +
         ". Trust C(α, I), β̃(α, I) inside the α range, not single coefficients outside it");
     fit.notes.push_back("α-model breakpoints: exhaustive grid search over " +
                         std::to_string(a.candidates_tried) + " sets, then " +
