@@ -337,6 +337,15 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
                         " sine run(s) were not under a pure P law (kp > 0, ki = kd = 0), which the "
                         "local linear model (19)-(20) assumes; they were left out of identification");
   }
+  std::size_t first_order = 0;
+  for (const auto& sp : fit.sine_points) {
+    first_order += sp.point.sample_period_s > 0.0 && sp.point.physical && !sp.point.sampled_exact;
+  }
+  if (first_order > 0) {
+    fit.notes.push_back(std::to_string(first_order) +
+                        " sine point(s): the exact sampled-data inversion did not converge; the "
+                        "first-order correction C = (C_data + ω²T/2)/(1 − C_data·T/2) was used");
+  }
   if (off_rate_runs > 0) {
     fit.notes.push_back(std::to_string(off_rate_runs) +
                         " sine run(s) are not sampled at the loop period T: the digital-loop "
