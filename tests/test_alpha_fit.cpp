@@ -1,9 +1,10 @@
-#include "alphainv/alpha_fit.hpp"
-
-#include <cmath>
-
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "alphainv/alpha_fit.hpp"
 #include "alphainv/inertia_model.hpp"
 #include "alphainv/simulate.hpp"
 
@@ -93,6 +94,100 @@ TEST(AlphaFit, GridSearchPredictsDampingOfUnseenModel) {
   EXPECT_GT(r.candidates_tried, 100u);
   EXPECT_LT(r.c_rms_relative, 0.03);
   EXPECT_LT(r.beta_rms_relative, 0.01);
+}
+
+/// max |C_fit/C_true − 1| over the α each pose's physical points cover (log grid).
+double max_damping_error_on_data(const std::vector<AlphaFitPose>& poses, const AlphaModel& fit,
+                                 const AlphaModel& truth) {
+  double worst = 0.0;
+  for (const auto& pose : poses) {
+    double lo = INFINITY, hi = 0.0;
+    for (const auto& p : pose.points) {
+      if (!p.physical) continue;
+      lo = std::min(lo, p.alpha_data);
+      hi = std::max(hi, p.alpha_data);
+    }
+    for (int k = 0; k <= 60; ++k) {
+      const double a = lo * std::pow(hi / lo, k / 60.0);
+      worst = std::max(worst,
+                       std::abs(fit.damping(a, pose.inertia) / truth.damping(a, pose.inertia) - 1));
+    }
+  }
+  return worst;
+}
+
+TEST(AlphaFit, NelderMeadRefinementMovesBreakpointsOffTheGridTowardsTheTruth) {
+  // The same unseen truth: its breakpoints 5 and 40 are not on the log grid. The local search from
+  // the grid winner must lower the score, bring C(α) on the data closer to the truth and put the
+  // breakpoints the data pin down near the truth's.
+  AlphaModel truth;
+  truth.n_breakpoints = 4;
+  truth.alpha = {0.0, 5.0, 40.0, 300.0};
+  truth.c_n1 = {10.0, 18.0, 30.0, 50.0};
+  truth.beta_alpha = {0.0, 300.0};
+  truth.beta_n1 = {0.9, 1.2};
+  const auto poses = paper_poses(truth);
+  AlphaFitOptions grid_only;
+  grid_only.refine = false;
+  const AlphaFitResult g = fit_alpha_model(poses, grid_only);
+  const AlphaFitResult r = fit_alpha_model(poses, AlphaFitOptions{});
+  ASSERT_TRUE(g.ok && r.ok);
+  EXPECT_FALSE(g.refined);
+  EXPECT_TRUE(r.refined);
+  EXPECT_GT(r.refine_evaluations, 0);
+  EXPECT_DOUBLE_EQ(r.grid_score, g.score);
+  EXPECT_LT(r.score, 0.5 * g.score);
+  const double err_grid = max_damping_error_on_data(poses, g.model, truth);
+  const double err_refined = max_damping_error_on_data(poses, r.model, truth);
+  std::printf(
+      "  [refinement] score %.3g -> %.3g, max C(alpha) error on the data %.2f %% -> %.2f %%, "
+      "breakpoints %.3g %.3g %.3g (data alpha %.3g ... %.3g)\n",
+      g.score, r.score, 100 * err_grid, 100 * err_refined, r.model.alpha[1], r.model.alpha[2],
+      r.model.alpha[3], r.alpha_data_min, r.alpha_data_max);
+  EXPECT_LT(err_refined, err_grid);
+  EXPECT_LT(err_refined, 0.02);
+  // The truth's α3 = 300 is above every α of the sweep: wherever the search puts α3, it is flagged
+  // as not pinned when it lies beyond the data.
+  if (r.model.alpha[3] > r.alpha_data_max) {
+    EXPECT_FALSE(r.breakpoint_identifiable[3]);
+    EXPECT_FALSE(r.c_n1_identifiable[3]);
+  }
+  for (std::size_t n = 1; n < 3; ++n) {
+    ASSERT_TRUE(r.breakpoint_identifiable[n]) << n;
+    EXPECT_NEAR(r.model.alpha[n], truth.alpha[n], 0.1 * truth.alpha[n]) << "alpha_" << n;
+  }
+}
+
+TEST(AlphaFit, BreakpointsAndCoefficientsBeyondTheDataAreFlaggedNotIdentifiable) {
+  // The paper's α3 = 250 lies above every α of the ±0.07 rad sweep (≈ 150 at most): neither it nor
+  // C_31 nor β̃ at ᾱ1 = 250 is measured; α1 = 2.2 and α2 = 25 have data on both sides.
+  const AlphaModel truth = paper_alpha_model();
+  const auto poses = paper_poses(truth);
+  const AlphaFitResult r = fit_alpha_model_at(poses, {0.0, 2.2, 25.0, 250.0}, AlphaFitOptions{});
+  ASSERT_TRUE(r.ok);
+  ASSERT_LT(r.alpha_data_max, 250.0);
+  EXPECT_GT(r.alpha_data_max, 25.0);
+  EXPECT_FALSE(r.breakpoint_identifiable[0]);  // α0 = 0: a convention
+  EXPECT_TRUE(r.breakpoint_identifiable[1]);
+  EXPECT_TRUE(r.breakpoint_identifiable[2]);
+  EXPECT_FALSE(r.breakpoint_identifiable[3]);
+  EXPECT_TRUE(r.c_n1_identifiable[1]);
+  EXPECT_TRUE(r.c_n1_identifiable[2]);
+  EXPECT_FALSE(r.c_n1_identifiable[3]);
+  EXPECT_TRUE(r.beta_n1_identifiable[0]);
+  EXPECT_FALSE(r.beta_n1_identifiable[1]);
+}
+
+TEST(AlphaFit, PoseInertiaFromTheAlphaModelIsTheTrueInertia) {
+  // The α-model's own steady states: the inertia that best fits the truth to each pose's points is
+  // that pose's inertia (to the local points' accuracy, < 1 %).
+  const AlphaModel truth = paper_alpha_model();
+  const auto poses = paper_poses(truth);
+  const std::vector<double> inertia = alpha_model_pose_inertia(poses, truth, 2.0);
+  ASSERT_EQ(inertia.size(), poses.size());
+  for (std::size_t k = 0; k < poses.size(); ++k) {
+    EXPECT_NEAR(inertia[k], poses[k].inertia, 0.01 * poses[k].inertia) << k;
+  }
 }
 
 TEST(AlphaFit, BadInputGivesMessage) {

@@ -87,6 +87,38 @@ TEST(FitPipeline, OnePoseSaysWhyNoInertiaModel) {
   EXPECT_NEAR(fit.alpha.model.damping(25.0, 1.0), 6.486, 0.05 * 6.486);
 }
 
+TEST(FitPipeline, DigitalLoopCorrectionFollowsTheSampleRateAndCanBeSwitchedOff) {
+  Dataset ds;
+  std::vector<RunData> data;
+  make_dataset({{60.08, 87.00}}, ds, data);
+  FitPipelineOptions o;
+  o.validate = false;
+  auto said = [](const DatasetFit& f, const char* what) {
+    bool found = false;
+    for (const auto& n : f.notes) found = found || n.find(what) != std::string::npos;
+    return found;
+  };
+  // No sample rate (this continuous simulation): (19)-(20) as printed.
+  const DatasetFit cont = fit_dataset(ds, data, o);
+  EXPECT_EQ(cont.loop_period_s, 0.0);
+  EXPECT_TRUE(said(cont, "continuous loop assumed"));
+  for (const auto& sp : cont.sine_points) EXPECT_EQ(sp.point.c_data, sp.point.c_data_continuous);
+  // A sample rate: the digital loop's period, and the points are inverted for it.
+  ds.sample_rate_hz = 1000.0;
+  const DatasetFit dig = fit_dataset(ds, data, o);
+  EXPECT_DOUBLE_EQ(dig.loop_period_s, 1e-3);
+  EXPECT_TRUE(said(dig, "digital-loop correction"));
+  ASSERT_FALSE(dig.sine_points.empty());
+  for (const auto& sp : dig.sine_points) {
+    if (!sp.point.physical) continue;
+    EXPECT_TRUE(sp.point.sampled_exact);
+    EXPECT_GT(sp.point.c_data, sp.point.c_data_continuous);  // (19) reads C low by ≈ ω²T/2
+  }
+  // Switched off explicitly.
+  o.loop_period_s = 0.0;
+  EXPECT_EQ(fit_dataset(ds, data, o).loop_period_s, 0.0);
+}
+
 TEST(FitPipeline, NoSineRunsSaysSoWithoutTheTimeDomainFit) {
   Dataset ds;
   std::vector<RunData> data;

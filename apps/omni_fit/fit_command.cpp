@@ -74,8 +74,15 @@ std::string make_report(const Dataset& ds, const DatasetFit& fit, const ModelFil
     for (const auto& n : fit.notes) r << "- " << n << "\n";
     r << "\n";
   }
-  r << "## Local linear points (eqs. 19, 20, 36)\n\n| run | pose | f [Hz] | gain | phase [°] | C_data | "
-       "β_data | α_data | physical |\n|---|---|---|---|---|---|---|---|---|\n";
+  r << "## Local linear points (eqs. 19, 20, 36)\n\n";
+  if (fit.loop_period_s > 0.0) {
+    r << "Digital loop: C_data and β_data are the exact inversion of the sampled-data P loop "
+         "(command held for T = "
+      << fmt(1e3 * fit.loop_period_s)
+      << " ms), not eqs. (19)-(20) as printed, which read C low by about ω²T/2 (see notes).\n\n";
+  }
+  r << "| run | pose | f [Hz] | gain | phase [°] | C_data | β_data | α_data | physical "
+       "|\n|---|---|---|---|---|---|---|---|---|\n";
   for (const auto& sp : fit.sine_points) {
     r << "| " << ds.runs[sp.run].file << " | " << pose_label(fit.poses[sp.pose]) << " | "
       << fmt(sp.point.freq_hz) << " | " << fmt(sp.gain) << " | " << fmt(sp.phase_deg, "%.2f") << " | "
@@ -111,18 +118,34 @@ std::string make_report(const Dataset& ds, const DatasetFit& fit, const ModelFil
   }
   if (fit.alpha.ok) {
     const AlphaModel& a = fit.alpha.model;
-    r << "\n## α-invariant model (eqs. 38–42; "
-      << (fit.alpha_source == "sine (2.3.5)"
-              ? "breakpoints by exhaustive grid search over " +
-                    std::to_string(fit.alpha.candidates_tried) + " sets"
-              : "time domain: output error, breakpoints at quantiles of the commands' α")
-      << ")\n\n| n | α_n | C_n1 | SE |\n|---|---|---|---|\n";
-    for (std::size_t k = 0; k < a.n_breakpoints; ++k) {
-      r << "| " << k << " | " << fmt(a.alpha[k]) << " | " << fmt(a.c_n1[k]) << " | "
-        << fmt(fit.alpha.c_n1_se[k], "%.3g") << " |\n";
+    if (fit.alpha_source == "sine (2.3.5)") {
+      r << "\n## α-invariant model (eqs. 38–42; breakpoints by exhaustive grid search over "
+        << fit.alpha.candidates_tried << " sets"
+        << (fit.alpha.refined ? ", refined by NLopt Nelder-Mead" : "") << ")\n\n"
+        << "The data cover α = " << fmt(fit.alpha.alpha_data_min) << " … "
+        << fmt(fit.alpha.alpha_data_max)
+        << ". A breakpoint is pinned when data lie on both sides of it; a coefficient is "
+           "identifiable when it is measured inside the data (not extrapolated) with relative SE "
+           "≤ 10 %. Trust C(α, I) and β̃(α, I) inside the α range.\n\n";
+    } else {
+      r << "\n## α-invariant model (eqs. 38–42; time domain: output error, breakpoints at "
+           "quantiles of the commands' α)\n\n";
     }
-    r << "\nβ̃_n1 = " << fmt(a.beta_n1[0]) << " at α = " << fmt(a.beta_alpha[0]) << ", "
-      << fmt(a.beta_n1[1]) << " at α = " << fmt(a.beta_alpha[1]) << ". RMS relative error on the "
+    r << "| n | α_n | pinned | C_n1 | SE | identifiable |\n|---|---|---|---|---|---|\n";
+    for (std::size_t k = 0; k < a.n_breakpoints; ++k) {
+      r << "| " << k << " | " << fmt(a.alpha[k]) << " | "
+        << (k == 0                                 ? "convention"
+            : fit.alpha.breakpoint_identifiable[k] ? "yes"
+                                                   : "**no**")
+        << " | " << fmt(a.c_n1[k]) << " | " << fmt(fit.alpha.c_n1_se[k], "%.3g") << " | "
+        << (fit.alpha.c_n1_identifiable[k] ? "yes" : "**no**") << " |\n";
+    }
+    r << "\nβ̃_n1 = " << fmt(a.beta_n1[0]) << " ± " << fmt(fit.alpha.beta_n1_se[0], "%.2g")
+      << (fit.alpha.beta_n1_identifiable[0] ? "" : " (**not identifiable**)")
+      << " at α = " << fmt(a.beta_alpha[0]) << ", " << fmt(a.beta_n1[1]) << " ± "
+      << fmt(fit.alpha.beta_n1_se[1], "%.2g")
+      << (fit.alpha.beta_n1_identifiable[1] ? "" : " (**not identifiable**)")
+      << " at α = " << fmt(a.beta_alpha[1]) << ". RMS relative error on the "
       << "data: C " << fmt(100 * fit.alpha.c_rms_relative, "%.2f") << " %, β̃ "
       << fmt(100 * fit.alpha.beta_rms_relative, "%.2f") << " %.\n";
   }

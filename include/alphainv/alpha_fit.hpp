@@ -7,6 +7,7 @@
 /// 1/C_n = C_n1·I and 1/β̃_n = β̃_n1·I by ordinary least squares through the origin.
 /// Offline (allocates); never throws on bad data: the result says what went wrong.
 
+#include <array>
 #include <cstddef>
 #include <string>
 #include <vector>
@@ -28,6 +29,13 @@ struct AlphaFitOptions {
   std::size_t n_breakpoints = 4;  ///< N (the paper's tri-linear model: 4)
   double kp = 2.0;                ///< proportional gain: β̃_data = β_data / kp
   std::size_t grid_size = 16;     ///< log-spaced candidate breakpoints for the grid search
+  /// Refine the grid winner's breakpoints by a local derivative-free search (NLopt Nelder-Mead on
+  /// the log-breakpoints; see fit_alpha_model()). false: the grid search alone, as the paper.
+  bool refine = true;
+  int refine_max_evaluations = 400;  ///< cap on fit_alpha_model_at() calls of the refinement
+  /// A C_n1 (or β̃_n1) whose standard error exceeds this fraction of its value is reported as not
+  /// identifiable (c_n1_identifiable / beta_n1_identifiable).
+  double identifiable_relative_se = 0.1;
   double ridge = 1e-6;            ///< relative Tikhonov weight keeping empty segments determined
 };
 
@@ -44,13 +52,40 @@ struct AlphaFitResult {
   double beta_rms_relative = 0.0;  ///< same for β̃
   std::size_t points_used = 0;
   std::size_t candidates_tried = 0;  ///< breakpoint sets evaluated by the grid search
+  double grid_score = 0.0;           ///< c_rms_relative² + beta_rms_relative² of the grid winner
+  double score = 0.0;                ///< the same for the returned model (≤ grid_score)
+  bool refined = false;              ///< the local search moved the breakpoints
+  int refine_evaluations = 0;        ///< fit_alpha_model_at() calls of the refinement
+  /// Range of α_data over the physical points used [command unit²/s²]: only there do the data
+  /// say anything about C(α) and β̃(α).
+  double alpha_data_min = 0.0, alpha_data_max = 0.0;
+  /// Breakpoint n's position is pinned by data: physical points lie on both sides of it within its
+  /// neighbouring segments (the top one: two or more points above it, reaching 1.5·α_{N−1}). α0 = 0
+  /// is a convention (C held below), never "pinned"; a top breakpoint near or above the data's top
+  /// is not identifiable (only the line through the last points is), nor is its C_n1.
+  std::array<bool, kMaxBreakpoints> breakpoint_identifiable{};
+  /// C_n1 identifiable: relative SE ≤ identifiable_relative_se and data on its hat function's
+  /// support.
+  std::array<bool, kMaxBreakpoints> c_n1_identifiable{};
+  /// β̃_n1 identifiable: relative SE small and its ᾱ within or at the data's α range (ᾱ1 = α_{N−1}
+  /// above alpha_data_max is an extrapolation of the line fitted to the data).
+  std::array<bool, 2> beta_n1_identifiable{};
 };
 
 /// Fits the α-invariant model (see file comment). Breakpoints: α0 = 0 (below it C is held), the
 /// others chosen from a log-spaced grid spanning the data's α by exhaustive search minimising the
-/// relative RMS error of the final model on C_data (the paper's grid search; exhaustive over
-/// C(grid, N−1) sets, deterministic). β̃ uses ᾱ0 = 0 and ᾱ1 = α_{N−1}.
+/// relative RMS error of the final model on C_data and β̃_data (the paper's grid search; exhaustive
+/// over C(grid, N−1) sets, deterministic), then — with options.refine — moved off the grid by a
+/// local Nelder-Mead search (NLopt) on the same score from the grid winner. β̃ uses ᾱ0 = 0 and
+/// ᾱ1 = α_{N−1}. The result says which breakpoints and coefficients the data pin down.
 AlphaFitResult fit_alpha_model(const std::vector<AlphaFitPose>& poses, const AlphaFitOptions& options);
+
+/// The inertia at each pose that makes the fitted α-model best match that pose's physical points:
+/// the model is C(α, I) = c(α)/I, β̃(α, I) = b(α)/I (eqs. (38)-(42)), so u = 1/I minimises
+/// Σ (u·c(α_k)/C_k − 1)² + (u·b(α_k)/β̃_k − 1)² in closed form. NaN for a pose without points.
+/// Used to re-identify the inertia model consistently with the α-model (fit_pipeline).
+std::vector<double> alpha_model_pose_inertia(const std::vector<AlphaFitPose>& poses,
+                                             const AlphaModel& model, double kp);
 
 /// Stage 2 only, with the breakpoints given: used by the grid search and by tests.
 AlphaFitResult fit_alpha_model_at(const std::vector<AlphaFitPose>& poses,

@@ -40,6 +40,15 @@ struct FitPipelineOptions {
   /// "validation simulations"): items done of total. Calls never overlap (a mutex serialises
   /// them) but may come from a validation worker thread. Empty: no calls.
   std::function<void(std::string_view stage, std::size_t done, std::size_t total)> progress;
+  /// Digital-loop correction of the local points (local_linear_point()): the controller tick T [s].
+  /// NaN (default): T = 1/sample_rate_hz when the dataset gives a rate (a digital loop: the command
+  /// of each row held until the next), else a continuous loop; 0: off, the paper's (19)-(20);
+  /// > 0: this T.
+  double loop_period_s = std::numeric_limits<double>::quiet_NaN();
+  bool refine_breakpoints = true;  ///< AlphaFitOptions::refine (NLopt search off the grid)
+  /// Re-identify the inertia model so that it is consistent with the α-model (see fit_dataset's
+  /// notes); false: the paper's inertia model from the global linear fits alone.
+  bool alpha_consistent_inertia = true;
 };
 
 /// One sine run's local identification.
@@ -99,6 +108,7 @@ struct DatasetFit {
   bool has_inertia_model = false;
   InertiaFitSummary inertia;   ///< valid when has_inertia_model
   double kp = 0.0;             ///< the P gain used to turn β into β̃ (runs must agree)
+  double loop_period_s = 0.0;  ///< T the digital-loop correction used [s]; 0: continuous (19)-(20)
   AlphaFitResult alpha;        ///< alpha.ok when the α-model was fitted
   /// How `alpha` was identified: "sine (2.3.5)" or "time domain (output error)".
   std::string alpha_source;

@@ -1,11 +1,12 @@
 #include "alphainv/alpha_fit.hpp"
 
+#include <nlopt.h>
+
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <functional>
 #include <limits>
-
-#include <Eigen/Dense>
 
 namespace alphainv {
 
@@ -49,6 +50,88 @@ void origin_regression(const std::vector<double>& x, const std::vector<double>& 
   double ss = 0.0;
   for (std::size_t k = 0; k < x.size(); ++k) ss += std::pow(y[k] - slope * x[k], 2);
   se = std::sqrt(ss / static_cast<double>(x.size() - 1) / sxx);
+}
+
+/// What the data pin down (AlphaFitResult::breakpoint_identifiable etc.): data support around each
+/// breakpoint, and the stage-2 relative standard errors (scatter of (40), (42) across poses).
+void assess_identifiability(const std::vector<AlphaFitPose>& poses, const AlphaFitOptions& options,
+                            AlphaFitResult& out) {
+  const AlphaModel& m = out.model;
+  const std::size_t n = m.n_breakpoints;
+  std::vector<double> alphas;
+  for (const AlphaFitPose& pose : poses) {
+    for (const auto& p : pose.points) {
+      if (p.physical && std::isfinite(p.alpha_data) && pose.inertia > 0.0)
+        alphas.push_back(p.alpha_data);
+    }
+  }
+  if (alphas.empty() || n < 2) return;
+  out.alpha_data_min = *std::min_element(alphas.begin(), alphas.end());
+  out.alpha_data_max = *std::max_element(alphas.begin(), alphas.end());
+  auto count_in = [&](double lo, double hi) {  // points with lo < α < hi
+    return std::count_if(alphas.begin(), alphas.end(), [&](double a) { return a > lo && a < hi; });
+  };
+  auto se_ok = [&](double value, double se) {
+    return !std::isfinite(se) || std::abs(se) <= options.identifiable_relative_se * std::abs(value);
+  };
+  const double inf = std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k < n; ++k) {
+    const double below = k > 0 ? m.alpha[k - 1] : -inf;
+    const double above = k + 1 < n ? m.alpha[k + 1] : inf;
+    // The top breakpoint starts the held segment: only data well above it (two or more points, up
+    // to 1.5·α_k) show the hold; with fewer, any α_k near or above the data's top fits as well
+    // (with C_k moved along the last line), so neither α_k nor C_k is pinned.
+    const bool top = k + 1 == n;
+    out.breakpoint_identifiable[k] =
+        k > 0 && count_in(below, m.alpha[k]) > 0 &&
+        (top ? count_in(m.alpha[k], above) >= 2 && out.alpha_data_max >= 1.5 * m.alpha[k]
+             : count_in(m.alpha[k], above) > 0);
+    // C_k at α_k is measured, not extrapolated, when α_k lies within the data (α0 = 0: when the
+    // first segment holds points, C_0 is its line's mild extrapolation to α = 0).
+    const bool supported = k == 0 ? count_in(-inf, m.alpha[1]) >= 2
+                           : top  ? out.breakpoint_identifiable[k]
+                                  : m.alpha[k] <= out.alpha_data_max && count_in(below, above) > 0;
+    out.c_n1_identifiable[k] = supported && se_ok(m.c_n1[k], out.c_n1_se[k]);
+  }
+  out.beta_n1_identifiable[0] = se_ok(m.beta_n1[0], out.beta_n1_se[0]);
+  out.beta_n1_identifiable[1] =
+      m.beta_alpha[1] <= out.alpha_data_max && se_ok(m.beta_n1[1], out.beta_n1_se[1]);
+}
+
+/// The local breakpoint search: x = (ln α1, ln(α2/α1), …, ln(α_{N−1}/α_{N−2})), so that any x in
+/// the bounds is a strictly increasing set.
+struct RefineContext {
+  const std::vector<AlphaFitPose>* poses = nullptr;
+  const AlphaFitOptions* options = nullptr;
+  std::size_t n = 0;
+  int evaluations = 0;
+  double best_score = std::numeric_limits<double>::infinity();
+  AlphaFitResult best;
+};
+
+std::vector<double> breakpoints_from_x(const double* x, std::size_t n) {
+  std::vector<double> bp(n, 0.0);
+  double log_alpha = 0.0;
+  for (std::size_t j = 1; j < n; ++j) {
+    log_alpha = j == 1 ? x[0] : log_alpha + x[j - 1];
+    bp[j] = std::exp(log_alpha);
+  }
+  return bp;
+}
+
+double refine_objective(unsigned nx, const double* x, double* /*grad*/, void* data) {
+  auto* ctx = static_cast<RefineContext*>(data);
+  ++ctx->evaluations;
+  const std::vector<double> bp = breakpoints_from_x(x, ctx->n);
+  (void)nx;
+  AlphaFitResult r = fit_alpha_model_at(*ctx->poses, bp, *ctx->options);
+  if (!r.ok || !std::isfinite(r.score)) return 1e10;  // invalid set: a wall for Nelder-Mead
+  const double score = r.score;
+  if (score < ctx->best_score) {
+    ctx->best_score = score;
+    ctx->best = std::move(r);
+  }
+  return score;
 }
 
 }  // namespace
@@ -149,8 +232,28 @@ AlphaFitResult fit_alpha_model_at(const std::vector<AlphaFitPose>& poses,
   out.points_used = count;
   out.c_rms_relative = std::sqrt(sc / static_cast<double>(count));
   out.beta_rms_relative = std::sqrt(sb / static_cast<double>(count));
+  out.score =
+      out.c_rms_relative * out.c_rms_relative + out.beta_rms_relative * out.beta_rms_relative;
   out.ok = model.valid();
   out.message = out.ok ? "ok" : "the fitted model is not valid (non-positive coefficients)";
+  assess_identifiability(poses, options, out);
+  return out;
+}
+
+std::vector<double> alpha_model_pose_inertia(const std::vector<AlphaFitPose>& poses,
+                                             const AlphaModel& model, double kp) {
+  std::vector<double> out;
+  for (const AlphaFitPose& pose : poses) {
+    double sxx = 0.0, sx = 0.0;
+    for (const auto& p : pose.points) {
+      if (!p.physical || !std::isfinite(p.alpha_data) || !(p.beta_data > 0.0)) continue;
+      const double xc = model.damping(p.alpha_data, 1.0) / p.c_data;             // c(α)/C_data
+      const double xb = model.beta_tilde(p.alpha_data, 1.0) * kp / p.beta_data;  // b(α)/β̃_data
+      sxx += xc * xc + xb * xb;
+      sx += xc + xb;
+    }
+    out.push_back(sxx > 0.0 && sx > 0.0 ? sxx / sx : kNaN);  // I = 1/u, u = Σx/Σx²
+  }
   return out;
 }
 
@@ -193,7 +296,7 @@ AlphaFitResult fit_alpha_model(const std::vector<AlphaFitPose>& poses,
       ++tried;
       AlphaFitResult r = fit_alpha_model_at(poses, bp, options);
       if (!r.ok) return;
-      const double score = r.c_rms_relative * r.c_rms_relative + r.beta_rms_relative * r.beta_rms_relative;
+      const double score = r.score;
       if (score < best_score) {
         best_score = score;
         best = std::move(r);
@@ -208,6 +311,53 @@ AlphaFitResult fit_alpha_model(const std::vector<AlphaFitPose>& poses,
   rec(0, 0);
   best.candidates_tried = tried;
   if (!best.ok && best.message == "no candidate breakpoints") best.message = "no breakpoint set gave a valid model";
+  if (!best.ok) return best;
+  best.grid_score = best.score;
+  if (!options.refine || n < 2) return best;
+  // Local refinement off the grid. The score is continuous in the breakpoints but has kinks where
+  // a breakpoint crosses a data point's α (the hat basis (38) switches segment), so a method that
+  // builds quadratic models from smoothness (BOBYQA) or needs gradients is the wrong tool;
+  // Nelder-Mead (NLopt LN_NELDERMEAD, bound-constrained) only compares values and copes with kinks.
+  // Start: the grid winner, first simplex step 0.25 in ln α (about a third of the grid spacing);
+  // bounds keep α1 ≥ lo/10, α_{N−1} ≤ 10·hi (guarded in the objective too) and each ratio
+  // α_{j+1}/α_j in [1.05, 1e4].
+  RefineContext ctx;
+  ctx.poses = &poses;
+  ctx.options = &options;
+  ctx.n = n;
+  ctx.best_score = best.score;
+  ctx.best = best;
+  const unsigned nx = static_cast<unsigned>(n - 1);
+  std::vector<double> x(nx), lb(nx), ub(nx), step(nx, 0.25);
+  for (std::size_t j = 1; j < n; ++j) {
+    x[j - 1] = j == 1 ? std::log(best.model.alpha[1])
+                      : std::log(best.model.alpha[j] / best.model.alpha[j - 1]);
+    lb[j - 1] = j == 1 ? std::log(lo / 10.0) : std::log(1.05);
+    ub[j - 1] = j == 1 ? std::log(10.0 * hi) : std::log(1e4);
+    x[j - 1] = std::clamp(x[j - 1], lb[j - 1], ub[j - 1]);
+  }
+  nlopt_opt opt = nlopt_create(NLOPT_LN_NELDERMEAD, nx);
+  if (opt != nullptr) {
+    nlopt_set_lower_bounds(opt, lb.data());
+    nlopt_set_upper_bounds(opt, ub.data());
+    nlopt_set_initial_step(opt, step.data());
+    nlopt_set_min_objective(opt, refine_objective, &ctx);
+    nlopt_set_xtol_abs1(opt, 1e-4);  // 0.01 % in α
+    nlopt_set_ftol_rel(opt, 1e-9);
+    nlopt_set_maxeval(opt, std::max(1, options.refine_max_evaluations));
+    double f = 0.0;
+    (void)nlopt_optimize(opt, x.data(), &f);  // the best point seen is kept in ctx whatever it says
+    nlopt_destroy(opt);
+  }
+  const double grid_score = best.grid_score;
+  const std::size_t candidates = best.candidates_tried;
+  if (ctx.best_score < grid_score) {
+    best = std::move(ctx.best);
+    best.refined = true;
+  }
+  best.grid_score = grid_score;
+  best.candidates_tried = candidates;
+  best.refine_evaluations = ctx.evaluations;
   return best;
 }
 

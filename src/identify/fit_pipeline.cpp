@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <map>
 #include <mutex>
@@ -32,11 +33,190 @@ double finite_percentile(const std::vector<double>& v, double p) {
 double finite_median(const std::vector<double>& v) { return finite_percentile(v, 50.0); }
 double finite_p90(const std::vector<double>& v) { return finite_percentile(v, 90.0); }
 
+std::string format_g(double x) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.6g", x);
+  return b;
+}
+
 bool is_periodic_kind(const RunInfo& run) {
   return (run.kind == "sine") && run.freq_hz && *run.freq_hz > 0.0;
 }
 
 bool is_step_kind(const RunInfo& run) { return run.kind == "square" || run.kind == "step"; }
+
+/// (27)-(29) identify I from β̃_linear = 1/I, but the α-model (42) says β̃ = 1/(β̃_n1(α)·I): when the
+/// α on each pose's resonance band differs between poses, 1/β̃_linear is not proportional to the
+/// inertia, and every α-model coefficient inherits a pose-dependent scale error (±6 % on generated
+/// data; C_linear at the band α carries the same bias). So: take each pose's inertia that best fits
+/// the α-model to its points (alpha_model_pose_inertia), scaled so that their sum equals the first
+/// fit's, fit (27)-(28) to it (C_linear passed as 1/(C̄0·I_pose), consistent, so only the shape is
+/// learnt), take C̄0 from the band's C_linear by the paper's regression β̃ = C̄0·C with β̃ = 1/I, and
+/// refit the α-model with the new I; repeat until the inertias settle.
+void refit_inertia_with_alpha_model(DatasetFit& fit, std::vector<AlphaFitPose>& apose,
+                                    const std::vector<std::size_t>& pose_of,
+                                    const AlphaFitOptions& aopt) {
+  const double c0_first = fit.inertia.model.c0_bar;
+  int iterations = 0;
+  double change = 0.0;
+  for (; iterations < 4; ++iterations) {
+    const std::vector<double> ieff = alpha_model_pose_inertia(apose, fit.alpha.model, aopt.kp);
+    double sum_old = 0.0, sum_new = 0.0;
+    for (std::size_t k = 0; k < apose.size(); ++k) {
+      if (std::isfinite(ieff[k])) {
+        sum_old += apose[k].inertia;
+        sum_new += ieff[k];
+      }
+    }
+    std::vector<InertiaPose> ip;
+    for (std::size_t k = 0; k < apose.size(); ++k) {
+      const PoseFit& pose = fit.poses[pose_of[k]];
+      if (!std::isfinite(ieff[k]) || !pose.linear.valid || !pose.gamma1_deg) continue;
+      const double inertia = ieff[k] * sum_old / sum_new;
+      ip.push_back({deg_to_rad(*pose.gamma1_deg), deg_to_rad(*pose.gamma2_deg),
+                    1.0 / (c0_first * inertia), 1.0 / inertia});
+    }
+    if (ip.size() < 6) break;
+    const InertiaFitOptions iopt{};
+    InertiaFitSummary s = fit_inertia_model(ip, iopt);
+    if (!s.converged) break;
+    // Each pose's information is in it twice (C passed consistent with β̃): the Ceres SEs assume
+    // 2n independent residuals and n_res − 6 degrees of freedom; really n poses, n − 5 for the
+    // shape.
+    const double n_poses = static_cast<double>(ip.size());
+    const double se_scale =
+        n_poses > 5.0 ? std::sqrt((2.0 * n_poses - 6.0) / (n_poses - 5.0)) : kNaN;
+    for (int k = 0; k < kC0Bar; ++k) {
+      const auto i = static_cast<std::size_t>(k);
+      s.standard_errors[i] *= se_scale;
+      const bool se_bad = k == kGammaOffs
+                              ? !(s.standard_errors[i] <= iopt.poorly_determined_gamma_offs_se_rad)
+                              : !(s.standard_errors[i] <=
+                                  iopt.poorly_determined_relative_se * std::abs(s.parameters[i]));
+      s.poorly_determined[i] = s.poorly_determined[i] || se_bad;
+    }
+    s.covariance *= se_scale * se_scale;
+    // C̄0 from the band's C_linear (eq. (29) with the new I), through the origin, with its SE.
+    double sxx = 0.0, sxy = 0.0, ss = 0.0, sc = 0.0, sb = 0.0;
+    std::size_t n = 0;
+    for (const PoseFit& pose : fit.poses) {
+      if (!pose.linear.valid || !pose.gamma1_deg) continue;
+      const double i =
+          s.model.inertia.inertia(deg_to_rad(*pose.gamma1_deg), deg_to_rad(*pose.gamma2_deg));
+      sxx += pose.linear.c_linear * pose.linear.c_linear;
+      sxy += pose.linear.c_linear / i;
+      ++n;
+    }
+    const double c0 = sxy / sxx;
+    for (const PoseFit& pose : fit.poses) {
+      if (!pose.linear.valid || !pose.gamma1_deg) continue;
+      const double i =
+          s.model.inertia.inertia(deg_to_rad(*pose.gamma1_deg), deg_to_rad(*pose.gamma2_deg));
+      ss += std::pow(1.0 / i - c0 * pose.linear.c_linear, 2);
+      sc += std::pow(1.0 / (c0 * i * pose.linear.c_linear) - 1.0, 2);
+      sb += std::pow(1.0 / (i * pose.linear.beta_tilde_linear) - 1.0, 2);
+    }
+    s.model.c0_bar = c0;
+    s.parameters[kC0Bar] = c0;
+    s.standard_errors[kC0Bar] = n > 1 ? std::sqrt(ss / static_cast<double>(n - 1) / sxx) : kNaN;
+    s.poorly_determined[kC0Bar] = !(s.standard_errors[kC0Bar] <= 0.5 * c0);
+    // The report's "RMS relative error of the model" stays against the band's linear fits.
+    s.rms_relative_c = std::sqrt(sc / static_cast<double>(n));
+    s.rms_relative_beta_tilde = std::sqrt(sb / static_cast<double>(n));
+    change = 0.0;
+    std::vector<AlphaFitPose> next = apose;
+    for (std::size_t k = 0; k < apose.size(); ++k) {
+      const PoseFit& pose = fit.poses[pose_of[k]];
+      if (!pose.gamma1_deg) continue;
+      next[k].inertia =
+          s.model.inertia.inertia(deg_to_rad(*pose.gamma1_deg), deg_to_rad(*pose.gamma2_deg));
+      change = std::max(change, std::abs(next[k].inertia / apose[k].inertia - 1.0));
+    }
+    AlphaFitResult a = fit_alpha_model(next, aopt);
+    if (!a.ok) break;
+    apose = std::move(next);
+    fit.inertia = std::move(s);
+    fit.alpha = std::move(a);
+    for (PoseFit& pose : fit.poses) {
+      if (pose.gamma1_deg) {
+        pose.inertia = fit.inertia.model.inertia.inertia(deg_to_rad(*pose.gamma1_deg),
+                                                         deg_to_rad(*pose.gamma2_deg));
+      }
+    }
+    if (change < 1e-4) break;
+  }
+  fit.notes.push_back(
+      "inertia model re-identified consistently with the α-model (" +
+      std::to_string(iterations + 1) + " pass(es), last change of I " + format_g(100 * change) +
+      " %): (27)-(28) fitted to the per-pose inertia that best fits the α-model to the pose's "
+      "points (scaled to the first fit's mean), C̄0 regressed on the band's C_linear with that I. "
+      "Reason: β̃_linear = 1/I holds only at one α, and the band's α differs between poses");
+}
+
+/// Notes on what the data pin down: the inertia model's poorly determined parameters (its SEs and
+/// correlations), the α-model's breakpoints and coefficients against the data's α range and SEs.
+void identifiability_notes(DatasetFit& fit) {
+  if (fit.has_inertia_model) {
+    std::string bad;
+    for (int k = 0; k < kInertiaFitParameterCount; ++k) {
+      const auto i = static_cast<std::size_t>(k);
+      if (fit.inertia.poorly_determined[i]) {
+        bad += std::string(bad.empty() ? "" : ", ") + inertia_fit_parameter_name(k) + " (SE " +
+               format_g(fit.inertia.standard_errors[i]) + " on " +
+               format_g(fit.inertia.parameters[i]) + ")";
+      }
+    }
+    fit.notes.push_back(
+        "identifiability, inertia model: " +
+        (bad.empty() ? std::string("every parameter has a relative SE below the threshold and no "
+                                   "correlation above 0.99")
+                     : "poorly determined: " + bad) +
+        ". The overall scale of I is not identifiable from any data (C = 1/(C_n1·I) and "
+        "β̃ = 1/(β̃_n1·I) are unchanged by I → kI, C_n1 → C_n1/k, β̃_n1 → β̃_n1/k); it is fixed by "
+        "β̃_linear = 1/I (eq. 25) on average over the poses");
+  }
+  if (fit.alpha.ok) {
+    const AlphaFitResult& a = fit.alpha;
+    const AlphaModel& m = a.model;
+    std::string pinned, free_bp, c_bad;
+    for (std::size_t k = 1; k < m.n_breakpoints; ++k) {
+      (a.breakpoint_identifiable[k] ? pinned : free_bp) +=
+          std::string((a.breakpoint_identifiable[k] ? pinned : free_bp).empty() ? "" : ", ") + "α" +
+          std::to_string(k) + " = " + format_g(m.alpha[k]);
+    }
+    for (std::size_t k = 0; k < m.n_breakpoints; ++k) {
+      if (!a.c_n1_identifiable[k]) {
+        c_bad += std::string(c_bad.empty() ? "" : ", ") + "C_" + std::to_string(k) + "1 (SE " +
+                 format_g(a.c_n1_se[k]) + " on " + format_g(m.c_n1[k]) + ")";
+      }
+    }
+    for (std::size_t k = 0; k < 2; ++k) {
+      if (!a.beta_n1_identifiable[k]) {
+        c_bad += std::string(c_bad.empty() ? "" : ", ") + "β̃_" + std::to_string(k) +
+                 "1 at ᾱ = " + format_g(m.beta_alpha[k]) + " (SE " + format_g(a.beta_n1_se[k]) +
+                 ")";
+      }
+    }
+    fit.notes.push_back(
+        "identifiability, α-model: the data cover α = " + format_g(a.alpha_data_min) + " … " +
+        format_g(a.alpha_data_max) +
+        "; breakpoints with data on both sides (pinned): " + (pinned.empty() ? "none" : pinned) +
+        "; not pinned by the data: " + (free_bp.empty() ? "none" : free_bp) +
+        (c_bad.empty()
+             ? "; every C_n1, β̃_n1 is measured within the data with relative SE ≤ 10 %"
+             : "; coefficients not identifiable (extrapolated beyond the data, tied to an unpinned "
+               "top breakpoint, or relative SE > 10 %): " +
+                   c_bad) +
+        ". Trust C(α, I), β̃(α, I) inside the α range, not single coefficients outside it");
+    fit.notes.push_back("α-model breakpoints: exhaustive grid search over " +
+                        std::to_string(a.candidates_tried) + " sets, then " +
+                        (a.refine_evaluations > 0
+                             ? "NLopt Nelder-Mead on ln α from the grid winner (" +
+                                   std::to_string(a.refine_evaluations) + " evaluations; score " +
+                                   format_g(a.grid_score) + " → " + format_g(a.score) + ")"
+                             : std::string("no refinement")));
+  }
+}
 
 }  // namespace
 
@@ -103,6 +283,25 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
   }
 
   // --- local linear points (14)-(20), (36) per sine run ------------------------------------------
+  // A digital loop (controller tick T, command held) biases (19)-(20); local_linear_point() undoes
+  // it exactly when T is known: from the options, else from the dataset's sample rate.
+  if (std::isnan(options.loop_period_s)) {
+    fit.loop_period_s = dataset.sample_rate_hz && *dataset.sample_rate_hz > 0.0
+                            ? 1.0 / *dataset.sample_rate_hz
+                            : 0.0;
+  } else {
+    fit.loop_period_s = std::max(0.0, options.loop_period_s);
+  }
+  fit.notes.push_back(
+      fit.loop_period_s > 0.0
+          ? "digital-loop correction: the sine runs are taken as a P law ticking every T = " +
+                format_g(fit.loop_period_s * 1e3) +
+                " ms with the command held over the tick (zero-order hold); C_data and β_data are "
+                "the exact inversion of that sampled-data loop, not eqs. (19)-(20) as printed "
+                "(which read C low by about ω²T/2)"
+          : "continuous loop assumed (no sample rate given or correction off): C_data, β_data by "
+            "eqs. (19)-(20) as printed");
+  std::size_t off_rate_runs = 0;
   std::vector<std::vector<LocalLinearPoint>> pose_points(fit.poses.size());
   std::size_t skipped_controller = 0;
   for (std::size_t i = 0; i < n_runs; ++i) {
@@ -132,7 +331,12 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
     SineRunPoint sp;
     sp.run = i;
     sp.pose = run_pose[i];
-    sp.point = local_linear_point(f, a0 * std::sin(phi), a0 * std::cos(phi), ar, ctl.kp);
+    if (fit.loop_period_s > 0.0 && d.t.size() > 1) {
+      const double dt_s = (d.t.back() - d.t.front()) / static_cast<double>(d.t.size() - 1);
+      if (std::abs(dt_s / fit.loop_period_s - 1.0) > 0.01) ++off_rate_runs;
+    }
+    sp.point = local_linear_point(f, a0 * std::sin(phi), a0 * std::cos(phi), ar, ctl.kp,
+                                  fit.loop_period_s);
     sp.gain = a0 / ar;
     sp.phase_deg = rad_to_deg(phi);
     fit.sine_points.push_back(sp);
@@ -143,6 +347,20 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
     fit.notes.push_back(std::to_string(skipped_controller) +
                         " sine run(s) were not under a pure P law (kp > 0, ki = kd = 0), which the "
                         "local linear model (19)-(20) assumes; they were left out of identification");
+  }
+  std::size_t first_order = 0;
+  for (const auto& sp : fit.sine_points) {
+    first_order += sp.point.sample_period_s > 0.0 && sp.point.physical && !sp.point.sampled_exact;
+  }
+  if (first_order > 0) {
+    fit.notes.push_back(std::to_string(first_order) +
+                        " sine point(s): the exact sampled-data inversion did not converge; the "
+                        "first-order correction C = (C_data + ω²T/2)/(1 − C_data·T/2) was used");
+  }
+  if (off_rate_runs > 0) {
+    fit.notes.push_back(std::to_string(off_rate_runs) +
+                        " sine run(s) are not sampled at the loop period T: the digital-loop "
+                        "correction assumes one controller tick per sample; check sample_rate_hz");
   }
   std::size_t n_nonphysical = 0;
   for (const auto& sp : fit.sine_points) n_nonphysical += sp.point.physical ? 0 : 1;
@@ -234,29 +452,38 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
 
   // --- α-invariant model (section 2.3.5) ----------------------------------------------------------
   std::vector<AlphaFitPose> apose;
+  std::vector<std::size_t> apose_pose;  // apose index → fit.poses index
   for (std::size_t p = 0; p < fit.poses.size(); ++p) {
     if (pose_points[p].empty()) continue;
     apose.push_back(AlphaFitPose{fit.poses[p].inertia, pose_points[p]});
+    apose_pose.push_back(p);
   }
   if (!apose.empty()) {
     AlphaFitOptions aopt;
     aopt.kp = fit.kp;
     aopt.n_breakpoints = options.n_breakpoints;
+    aopt.refine = options.refine_breakpoints;
     progress("alpha breakpoint search", 0, 1);
     fit.alpha = fit_alpha_model(apose, aopt);
     if (fit.alpha.ok) fit.alpha_source = "sine (2.3.5)";
+    if (fit.alpha.ok && fit.has_inertia_model && options.alpha_consistent_inertia) {
+      refit_inertia_with_alpha_model(fit, apose, apose_pose, aopt);
+    }
     progress("alpha breakpoint search", 1, 1);
     if (!fit.alpha.ok) fit.notes.push_back("α-invariant model not fitted: " + fit.alpha.message);
+    identifiability_notes(fit);
     if (!fit.has_inertia_model && apose.size() > 1) {
       fit.notes.push_back("without an inertia model the α-model is one model for all poses (I = 1)");
     }
   }
 
   // --- time domain: poses without sine runs (output error) --------------------------------------
-  if (options.time_domain && fit.sine_points.empty() && dataset.sample_rate_hz) {
-    // Without the paper's sine sweep, simulate as the digital loop when the runs are sampled
-    // uniformly at the nominal rate (a 1 kHz rig), else with the continuous law.
-    const double period = 1.0 / *dataset.sample_rate_hz;
+  // --- how the models are simulated (validation, time-domain fit) -------------------------------
+  // A digital loop (the local points were corrected for it, or the dataset gives a sample rate):
+  // simulate it as one, the command held over each tick, when the runs are sampled uniformly at
+  // that period; otherwise the continuous law (43).
+  if (fit.loop_period_s > 0.0) {
+    const double period = fit.loop_period_s;
     bool uniform = true;
     for (const RunData& d : data) {
       for (std::size_t k = 1; k < d.size() && uniform; ++k) {
@@ -264,6 +491,10 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
       }
     }
     if (uniform) fit.simulation.loop_period_s = period;
+    fit.notes.push_back(uniform ? "models simulated as the digital loop at " +
+                                      format_g(1.0 / period) + " Hz (command held over each tick)"
+                                : "runs not sampled uniformly at the loop period: models simulated "
+                                  "with the continuous law (43)");
   }
   if (options.time_domain && fit.sine_points.empty() && !(fit.simulation.loop_period_s > 0.0)) {
     // Continuous law on slow, irregular samples: RK4 steps as long as the median sample interval
