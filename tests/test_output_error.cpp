@@ -40,7 +40,7 @@ TEST(OutputError, RecoversLinearModelCoulombAndOffsetFromTheVirtualPlant) {
   OutputErrorProblem pr;
   Controller ctl;
   ctl.kp = 2.0;
-  for (const auto& r : runs) pr.runs.push_back({&r, ctl, 1.0});
+  for (const auto& r : runs) pr.runs.push_back({&r, ctl, 1.0, {}});
   pr.parameters = {{"c", 5.0, 0.1, 100.0},
                    {"beta_tilde", 150.0, 1.0, 1e4},
                    {"coulomb_v", 0.0, 0.0, 1.0},
@@ -90,7 +90,7 @@ TEST(OutputError, BadProblemsGiveAMessage) {
   RunData d;
   d.t = {0, 1};
   d.r = d.theta = d.v = {0, 0};
-  pr.runs.push_back({&d, Controller{}, 1.0});
+  pr.runs.push_back({&d, Controller{}, 1.0, {}});
   pr.model = [](const double*, std::size_t) { return JointModelAtPose{}; };
   const OutputErrorResult r = fit_output_error(pr);
   EXPECT_FALSE(r.ok);
@@ -102,7 +102,7 @@ TEST(OutputError, BadProblemsGiveAMessage) {
     e.theta.push_back(0);
     e.v.push_back(0);
   }
-  pr.runs = {{&e, Controller{}, 1.0}};
+  pr.runs = {{&e, Controller{}, 1.0, {}}};
   pr.parameters = {{"c", 5.0, 6.0, 7.0}};
   EXPECT_NE(fit_output_error(pr).message.find("outside its bounds"), std::string::npos);
 }

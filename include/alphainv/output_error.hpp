@@ -26,6 +26,8 @@ struct OutputErrorRun {
   const RunData* data = nullptr;  ///< measured t, r, theta (must outlive the fit)
   Controller controller;          ///< the law that made v from r and theta
   double weight = 1.0;            ///< weight of its squared residuals
+  /// Commands before the first sample, oldest first (InitialState::command_history). Usually empty.
+  std::vector<double> command_history;
 };
 
 /// One free parameter.

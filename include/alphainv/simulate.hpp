@@ -86,9 +86,16 @@ struct SimulationResult {
 
 /// Initial state.
 struct InitialState {
+  InitialState() = default;
+  InitialState(double theta_0, double theta_dot_0 = 0.0, double integral_0 = 0.0)
+      : theta(theta_0), theta_dot(theta_dot_0), integral(integral_0) {}
+
   double theta = 0.0;      ///< θ(t0)
   double theta_dot = 0.0;  ///< θ̇(t0)
   double integral = 0.0;   ///< ∫e dt at t0 (PID only)
+  /// Digital loop only: the commands of the ticks before t0 (oldest first), which prime the α
+  /// filter and the delay line as a run started mid-way left them. Empty: at rest before t0.
+  std::vector<double> command_history;
 };
 
 /// Simulates from times.front() and reports at each entry of `times_s` (strictly increasing).

@@ -106,6 +106,11 @@ class VirtualOmni {
   /// Real-time safe: noexcept, no allocation, no locks, no I/O.
   double step(double command_v, double disturbance_v = 0.0) noexcept;
 
+  /// Feeds past commands (oldest first) through the command path (delay line, amplifier, α
+  /// filter) without moving the joint: starts a simulation from the middle of a recorded run with
+  /// the α filter and the delay line in the state the run left them. Real-time safe.
+  void prime_commands(const double* commands_v, std::size_t n) noexcept;
+
   /// Back to the initial state of the parameters: θ, θ̇, command history, α filter, time and the
   /// noise generator (reseeded), then the first measurement again. Real-time safe.
   void reset() noexcept;
@@ -136,6 +141,7 @@ class VirtualOmni {
 
  private:
   void integrate(double duration_s, double input_v) noexcept;
+  void command_path(double command_v, double& u_early, double& u_late) noexcept;
   double amplifier(double v) const noexcept;
   double measure(double theta_rad) noexcept;
   double gaussian() noexcept;

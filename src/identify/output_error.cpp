@@ -164,7 +164,9 @@ SimulationResult simulate_output_error_run(const OutputErrorProblem& problem, co
   const RunData& d = *run.data;
   const SampledReference ref(d.t, d.r);
   const JointModelAtPose model = problem.model(p, i);
-  return simulate(model, run.controller, ref, d.t, initial_state_of(d), problem.simulation);
+  InitialState x0 = initial_state_of(d);
+  x0.command_history = run.command_history;
+  return simulate(model, run.controller, ref, d.t, x0, problem.simulation);
 }
 
 std::vector<double> output_error_rms(const OutputErrorProblem& problem, const std::vector<double>& p,

@@ -17,7 +17,7 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 OutputErrorProblem make_problem(const std::vector<TimeDomainRun>& runs,
                                 const TimeDomainFitOptions& options) {
   OutputErrorProblem pr;
-  for (const auto& r : runs) pr.runs.push_back({r.data, r.controller, 1.0});
+  for (const auto& r : runs) pr.runs.push_back({r.data, r.controller, 1.0, {}});
   pr.simulation = options.simulation;
   pr.max_residuals_per_run = options.max_residuals_per_run;
   return pr;

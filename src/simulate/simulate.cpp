@@ -326,7 +326,9 @@ void simulate_digital(const JointModelAtPose& model, const Controller& ctl, cons
   p.initial_theta_rad = init.theta;
   p.initial_theta_dot_rad_s = init.theta_dot;
   const ReferenceSample r0 = ref.at(t0);
-  p.initial_command_v = ctl.clamp(ctl.kp * (r0.r - init.theta) + ctl.ki * init.integral);
+  p.initial_command_v = init.command_history.empty()
+                            ? ctl.clamp(ctl.kp * (r0.r - init.theta) + ctl.ki * init.integral)
+                            : init.command_history.front();
   p.effects = model.effects;
   std::unique_ptr<VirtualOmni> omni;
   std::string last_error;
@@ -342,6 +344,9 @@ void simulate_digital(const JointModelAtPose& model, const Controller& ctl, cons
   if (!omni) {
     res.message = "digital loop: " + last_error;
     return;
+  }
+  if (!init.command_history.empty()) {
+    omni->prime_commands(init.command_history.data(), init.command_history.size());
   }
   const double span = times.back() - t0;
   const auto n_ticks = static_cast<std::size_t>(std::ceil(span / T - 1e-9)) + 1;

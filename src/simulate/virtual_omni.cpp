@@ -228,7 +228,7 @@ double VirtualOmni::measure(double theta_rad) noexcept {
   return y + 0.0;  // −0 (a negative value rounded to count 0) reads as 0
 }
 
-double VirtualOmni::step(double command_v, double disturbance_v) noexcept {
+void VirtualOmni::command_path(double command_v, double& u_early, double& u_late) noexcept {
   // Command path: the delay line holds v_k … v_{k−m−1}; v(t − τ) is v_{k−m−1} for the first
   // fraction φ = τ/T − m of the tick and v_{k−m} after it.
   const std::size_t len = delay_line_.size();
@@ -236,8 +236,8 @@ double VirtualOmni::step(double command_v, double disturbance_v) noexcept {
   delay_line_[delay_head_] = command_v;
   const double v_late = delay_line_[(delay_head_ + len - delay_ticks_) % len];       // v_{k−m}
   const double v_early = delay_line_[(delay_head_ + len - delay_ticks_ - 1) % len];  // v_{k−m−1}
-  const double u_late = amplifier(v_late);
-  const double u_early = amplifier(v_early);
+  u_late = amplifier(v_late);
+  u_early = amplifier(v_early);
   const double phi = delay_fraction_;
   v_eff_mean_ = phi * u_early + (1.0 - phi) * u_late;
   v_eff_peak_ = phi > 0.0 ? std::max(std::abs(u_early), std::abs(u_late)) : std::abs(u_late);
@@ -246,7 +246,17 @@ double VirtualOmni::step(double command_v, double disturbance_v) noexcept {
   alpha_ = estimator_.update(v_eff_mean_).alpha;
   damping_ = params_.alpha_model.damping(alpha_, inertia_);
   beta_tilde_ = params_.alpha_model.beta_tilde(alpha_, inertia_);
+}
 
+void VirtualOmni::prime_commands(const double* commands_v, std::size_t n) noexcept {
+  double u_early = 0.0, u_late = 0.0;
+  for (std::size_t k = 0; k < n; ++k) command_path(commands_v[k], u_early, u_late);
+}
+
+double VirtualOmni::step(double command_v, double disturbance_v) noexcept {
+  double u_early = 0.0, u_late = 0.0;
+  command_path(command_v, u_early, u_late);
+  const double phi = delay_fraction_;
   const double T = params_.tick_period_s;
   if (phi > 0.0) {
     integrate(phi * T, u_early + disturbance_v);

@@ -1,0 +1,803 @@
+#include "alphainv/diagnose.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <thread>
+
+#include <Eigen/Dense>
+
+#include "alphainv/output_error.hpp"
+#include "alphainv/reference.hpp"
+#include "alphainv/time_domain_fit.hpp"
+
+namespace alphainv {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kTwoPi = 6.283185307179586476925;
+
+unsigned thread_count(unsigned requested, std::size_t jobs) {
+  const unsigned hw = std::max(1u, std::thread::hardware_concurrency());
+  const unsigned n = requested ? requested : hw;
+  return std::max(1u, std::min<unsigned>(n, static_cast<unsigned>(std::max<std::size_t>(jobs, 1))));
+}
+
+/// Runs f(i) for i in [0, n) on `threads` threads.
+void parallel_for(std::size_t n, unsigned threads, const std::function<void(std::size_t)>& f) {
+  std::atomic<std::size_t> next{0};
+  auto worker = [&] {
+    for (std::size_t i = next++; i < n; i = next++) f(i);
+  };
+  const unsigned t = thread_count(threads, n);
+  std::vector<std::thread> pool;
+  for (unsigned k = 1; k < t; ++k) pool.emplace_back(worker);
+  worker();
+  for (auto& th : pool) th.join();
+}
+
+std::string num(double x, const char* f = "%.3g") {
+  char b[64];
+  std::snprintf(b, sizeof b, f, x);
+  return b;
+}
+
+SimulationResult simulate_run(const DiagnoseRun& run, const JointModelAtPose& m,
+                              const SimulationOptions& so) {
+  const RunData& d = *run.data;
+  const SampledReference ref(d.t, d.r);
+  InitialState x0 = initial_state_of(d);
+  x0.command_history = run.command_history;
+  return simulate(m, run.controller, ref, d.t, x0, so);
+}
+
+double rms_of(const RunData& d, const std::vector<double>& sim) {
+  if (sim.size() != d.size() || d.size() == 0) return kNaN;
+  double ss = 0.0;
+  for (std::size_t k = 0; k < d.size(); ++k) ss += (d.theta[k] - sim[k]) * (d.theta[k] - sim[k]);
+  return std::sqrt(ss / static_cast<double>(d.size()));
+}
+
+/// RMS over runs weighted by their sample counts (all samples of all runs).
+double pooled_rms(const std::vector<DiagnoseRun>& runs, const std::vector<double>& run_rms,
+                  const std::vector<std::size_t>& which) {
+  double ss = 0.0, n = 0.0;
+  for (std::size_t i : which) {
+    if (!std::isfinite(run_rms[i])) return kNaN;
+    const double m = static_cast<double>(runs[i].data->size());
+    ss += run_rms[i] * run_rms[i] * m;
+    n += m;
+  }
+  return n > 0 ? std::sqrt(ss / n) : kNaN;
+}
+
+/// The fit runs: at most `max_n`, spread over the runs ordered by kind and frequency.
+std::vector<std::size_t> choose_fit_runs(const std::vector<DiagnoseRun>& runs, std::size_t max_n) {
+  std::vector<std::size_t> order(runs.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  if (runs.size() <= max_n) return order;
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    if (runs[a].kind != runs[b].kind) return runs[a].kind < runs[b].kind;
+    return runs[a].freq_hz.value_or(0.0) < runs[b].freq_hz.value_or(0.0);
+  });
+  std::vector<std::size_t> out;
+  for (std::size_t k = 0; k < max_n; ++k) {
+    const std::size_t j = static_cast<std::size_t>(
+        std::floor((static_cast<double>(k) + 0.5) * static_cast<double>(runs.size()) /
+                   static_cast<double>(max_n)));
+    out.push_back(order[std::min(j, order.size() - 1)]);
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+/// Scales of the data, for starts and bounds.
+struct DataScales {
+  double v_max = 1.0;          ///< largest |v| [command unit]
+  double theta_dot_rms = 1.0;  ///< RMS of the measured θ̇ [position unit/s]
+  double theta_min = 0.0, theta_max = 0.0;
+};
+
+/// One effect kind's parameters as an output-error parameter block: names, starts, bounds.
+struct ParamBlock {
+  EffectKind kind;
+  std::vector<EffectParameter> params;
+  std::vector<double> start, lower, upper;
+};
+
+/// The implied torque residual n̂ = (θ̈ + C·θ̇)/β̃ − u along each fit run (inverse dynamics with the
+/// current model), with the measured θ, θ̇ at the same samples.
+struct TorqueResidual {
+  std::vector<double> n_hat, theta, theta_dot;
+};
+
+TorqueResidual torque_residual(const std::vector<DiagnoseRun>& runs,
+                               const std::vector<std::size_t>& fit_runs,
+                               const std::vector<SimulationResult>& sims, const Effects& current) {
+  TorqueResidual tr;
+  for (std::size_t i : fit_runs) {
+    const RunData& d = *runs[i].data;
+    const SimulationResult& s = sims[i];
+    if (!s.ok || s.damping.size() != d.size()) continue;
+    std::vector<double> dth, ddth;
+    local_quadratic_derivatives(d.t, d.theta, 0.01, dth, ddth);
+    // Skip the first and last 20 ms (one-sided fits) of each run.
+    for (std::size_t k = 0; k < d.size(); ++k) {
+      if (d.t[k] - d.t.front() < 0.02 || d.t.back() - d.t[k] < 0.02) continue;
+      const double bt = s.beta_tilde[k];
+      if (!(bt > 0.0)) continue;
+      const double u = amplifier(current, d.v[k]) + effect_torque(current, d.theta[k], dth[k]);
+      const double n = (ddth[k] + s.damping[k] * dth[k]) / bt - u;
+      if (!std::isfinite(n)) continue;
+      tr.n_hat.push_back(n);
+      tr.theta.push_back(d.theta[k]);
+      tr.theta_dot.push_back(dth[k]);
+    }
+  }
+  return tr;
+}
+
+/// Least squares n̂ ≈ X·b; returns b and R² (NaN when singular).
+Eigen::VectorXd regress(const std::vector<std::vector<double>>& cols, const std::vector<double>& y,
+                        double* r2) {
+  const auto n = static_cast<Eigen::Index>(y.size());
+  const auto p = static_cast<Eigen::Index>(cols.size());
+  Eigen::MatrixXd x(n, p);
+  Eigen::VectorXd yy(n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    yy(i) = y[static_cast<std::size_t>(i)];
+    for (Eigen::Index j = 0; j < p; ++j) x(i, j) = cols[static_cast<std::size_t>(j)][static_cast<std::size_t>(i)];
+  }
+  const Eigen::VectorXd b = x.colPivHouseholderQr().solve(yy);
+  if (r2 != nullptr) {
+    const double mean = yy.mean();
+    const double tot = (yy.array() - mean).square().sum();
+    const double res = (yy - x * b).squaredNorm();
+    *r2 = tot > 0 ? 1.0 - res / tot : kNaN;
+  }
+  return b;
+}
+
+/// Equation-error starts of the torque-like effects from n̂.
+void equation_error_start(EffectKind kind, const TorqueResidual& tr, const DataScales& sc,
+                          Effects& e) {
+  const std::size_t n = tr.n_hat.size();
+  if (n < 20) return;
+  std::vector<double> ones(n, 1.0);
+  switch (kind) {
+    case EffectKind::kCoulombFriction: {
+      std::vector<double> s(n);
+      for (std::size_t k = 0; k < n; ++k) s[k] = -std::tanh(tr.theta_dot[k] / e.coulomb_smoothing_rad_s);
+      const Eigen::VectorXd b = regress({s, ones}, tr.n_hat, nullptr);
+      e.coulomb_v = std::clamp(b(0), 0.0, sc.v_max);
+      break;
+    }
+    case EffectKind::kOffsetTorque: {
+      const Eigen::VectorXd b = regress({ones}, tr.n_hat, nullptr);
+      e.offset_v = std::clamp(b(0), -sc.v_max, sc.v_max);
+      break;
+    }
+    case EffectKind::kGravity: {
+      std::vector<double> s(n), c(n);
+      for (std::size_t k = 0; k < n; ++k) {
+        s[k] = std::sin(tr.theta[k]);
+        c[k] = std::cos(tr.theta[k]);
+      }
+      // −g·sin(θ + θ0) = −g·cos θ0·sin θ − g·sin θ0·cos θ
+      const Eigen::VectorXd b = regress({s, c}, tr.n_hat, nullptr);
+      e.gravity_v = std::min(std::hypot(b(0), b(1)), 2.0 * sc.v_max);
+      e.gravity_theta0_rad = std::atan2(-b(1), -b(0));
+      break;
+    }
+    case EffectKind::kCogging: {
+      // a·sin(2πθ/p + φ) = a cos φ·sin(2πθ/p) + a sin φ·cos(2πθ/p), best p on a log grid.
+      const double range = std::max(sc.theta_max - sc.theta_min, 1e-9);
+      double best_r2 = -kInf;
+      for (int g = 0; g < 80; ++g) {
+        const double p = range / 400.0 * std::pow(400.0 / 1.5, g / 79.0);
+        std::vector<double> s(n), c(n);
+        for (std::size_t k = 0; k < n; ++k) {
+          s[k] = std::sin(kTwoPi * tr.theta[k] / p);
+          c[k] = std::cos(kTwoPi * tr.theta[k] / p);
+        }
+        double r2 = kNaN;
+        const Eigen::VectorXd b = regress({s, c, ones}, tr.n_hat, &r2);
+        if (std::isfinite(r2) && r2 > best_r2) {
+          best_r2 = r2;
+          e.cogging_period_rad = p;
+          e.cogging_v = std::min(std::hypot(b(0), b(1)), sc.v_max);
+          e.cogging_phase_rad = std::atan2(b(1), b(0));
+        }
+      }
+      break;
+    }
+    default:
+      break;
+  }
+}
+
+/// The parameter block of `kind` with starts from `e` and bounds from the data scales.
+ParamBlock param_block(EffectKind kind, const Effects& e, const DataScales& sc) {
+  ParamBlock b;
+  b.kind = kind;
+  b.params = effect_parameters(kind);
+  for (const auto& p : b.params) {
+    const double x = e.*(p.member);
+    double lo = -kInf, hi = kInf;
+    const std::string name = p.name;
+    if (name == "coulomb_v") lo = 0.0, hi = 2.0 * sc.v_max;
+    if (name == "offset_v") lo = -sc.v_max, hi = sc.v_max;
+    if (name == "gravity_v") lo = -2.0 * sc.v_max, hi = 2.0 * sc.v_max;
+    if (name == "gravity_theta0_rad" || name == "cogging_phase_rad") lo = -4 * kTwoPi, hi = 4 * kTwoPi;
+    if (name == "cogging_v") lo = -sc.v_max, hi = sc.v_max;
+    if (name == "cogging_period_rad") lo = x / 1.3, hi = x * 1.3;
+    if (name == "delay_s") lo = 0.0, hi = 0.2;
+    if (name == "saturation_v") lo = 0.02 * sc.v_max, hi = 3.0 * sc.v_max;
+    if (name == "deadzone_v") lo = 0.0, hi = 0.5 * sc.v_max;
+    b.start.push_back(std::clamp(x, lo, hi));
+    b.lower.push_back(lo);
+    b.upper.push_back(hi);
+  }
+  return b;
+}
+
+/// The output-error problem of the model with `kinds` active: p = [c_scale, β̃ scale, effect
+/// parameters of each kind in order]; the other fields of `base` stay fixed.
+OutputErrorProblem make_problem(const std::vector<DiagnoseRun>& runs,
+                                const std::vector<std::size_t>& which,
+                                const std::vector<ParamBlock>& blocks, const Effects& base,
+                                const ModelScales& start, const DiagnoseOptions& opt) {
+  OutputErrorProblem pr;
+  std::vector<const DiagnoseRun*> rs;
+  for (std::size_t i : which) {
+    pr.runs.push_back({runs[i].data, runs[i].controller, 1.0, runs[i].command_history});
+    rs.push_back(&runs[i]);
+  }
+  for (std::size_t k = 0; k < start.c.size(); ++k)
+    pr.parameters.push_back({"c_scale_" + std::to_string(k), start.c[k], 0.2, 5.0});
+  for (std::size_t k = 0; k < start.beta.size(); ++k)
+    pr.parameters.push_back({"beta_scale_" + std::to_string(k), start.beta[k], 0.2, 5.0});
+  for (const auto& b : blocks) {
+    for (std::size_t j = 0; j < b.params.size(); ++j)
+      pr.parameters.push_back({b.params[j].name, b.start[j], b.lower[j], b.upper[j]});
+  }
+  pr.simulation = opt.simulation;
+  pr.max_residuals_per_run = opt.max_residuals_per_run;
+  const std::size_t nc = start.c.size(), nb = start.beta.size();
+  pr.model = [rs, blocks, base, nc, nb](const double* p, std::size_t i) {
+    Effects e = base;
+    std::size_t at = nc + nb;
+    for (const auto& b : blocks) {
+      for (const auto& par : b.params) e.*(par.member) = p[at++];
+    }
+    ModelScales sc;
+    sc.c.assign(p, p + nc);
+    sc.beta.assign(p + nc, p + nc + nb);
+    return diagnosed_model(rs[i]->model, e, sc);
+  };
+  return pr;
+}
+
+/// The coefficient factors in fitted values p (shaped like `shape`).
+ModelScales scales_of(const ModelScales& shape, const std::vector<double>& p) {
+  ModelScales sc;
+  const auto nc = static_cast<std::ptrdiff_t>(shape.c.size());
+  const auto nb = static_cast<std::ptrdiff_t>(shape.beta.size());
+  sc.c.assign(p.begin(), p.begin() + nc);
+  sc.beta.assign(p.begin() + nc, p.begin() + nc + nb);
+  return sc;
+}
+
+/// Applies fitted values p to the blocks' effects.
+Effects effects_of(const std::vector<ParamBlock>& blocks, const Effects& base,
+                   const ModelScales& shape, const std::vector<double>& p) {
+  Effects e = base;
+  std::size_t at = shape.c.size() + shape.beta.size();
+  for (const auto& b : blocks) {
+    for (const auto& par : b.params) e.*(par.member) = p[at++];
+  }
+  return e;
+}
+
+/// Per-run RMS of the model (base effects `e`, scales) over `which` runs; NaN for failures.
+std::vector<double> run_rms_with(const std::vector<DiagnoseRun>& runs,
+                                 const std::vector<std::size_t>& which, const Effects& e,
+                                 const ModelScales& ms, const DiagnoseOptions& opt) {
+  std::vector<double> out(runs.size(), kNaN);
+  parallel_for(which.size(), opt.threads, [&](std::size_t j) {
+    const std::size_t i = which[j];
+    const SimulationResult s = simulate_run(runs[i], diagnosed_model(runs[i].model, e, ms), opt.simulation);
+    out[i] = s.ok ? rms_of(*runs[i].data, s.theta) : kNaN;
+  });
+  return out;
+}
+
+/// A 1-D scan of one parameter's start (delay, saturation, deadzone): the value of `values` with
+/// the lowest pooled RMS over the fit runs.
+double scan_start(const std::vector<DiagnoseRun>& runs, const std::vector<std::size_t>& fit_runs,
+                  Effects e, double Effects::*member, const std::vector<double>& values,
+                  const ModelScales& ms, const DiagnoseOptions& opt) {
+  double best = values.front(), best_rms = kInf;
+  for (double x : values) {
+    e.*member = x;
+    const double r = pooled_rms(runs, run_rms_with(runs, fit_runs, e, ms, opt), fit_runs);
+    if (std::isfinite(r) && r < best_rms) {
+      best_rms = r;
+      best = x;
+    }
+  }
+  return best;
+}
+
+/// Residual location and its words.
+ResidualLocation locate(const std::vector<DiagnoseRun>& runs,
+                        const std::vector<std::vector<double>>& sims) {
+  ResidualLocation loc;
+  loc.run_rms.assign(runs.size(), kNaN);
+  double e_all = 0, n_all = 0;
+  double e_rev = 0, n_rev = 0, e_jump = 0, n_jump = 0, e_hv = 0, n_hv = 0, e_lv = 0, n_lv = 0,
+         e_ha = 0, n_ha = 0;
+  std::vector<std::pair<double, double>> sine_rel;  // (freq, RMS / amplitude)
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    const RunData& d = *runs[i].data;
+    if (sims[i].size() != d.size() || d.size() < 10) continue;
+    loc.run_rms[i] = rms_of(d, sims[i]);
+    std::vector<double> dth, ddth;
+    local_quadratic_derivatives(d.t, d.theta, 0.01, dth, ddth);
+    const std::vector<double> alpha = alpha_of_command(d.t, d.v, 0.01);
+    double dth_max = 0;
+    for (double x : dth) dth_max = std::max(dth_max, std::abs(x));
+    std::vector<double> av(d.size()), aa(alpha.size());
+    for (std::size_t k = 0; k < d.size(); ++k) av[k] = std::abs(d.v[k]);
+    for (std::size_t k = 0; k < alpha.size(); ++k) aa[k] = alpha[k];
+    std::vector<double> sorted_v = av, sorted_a = aa;
+    std::sort(sorted_v.begin(), sorted_v.end());
+    std::sort(sorted_a.begin(), sorted_a.end());
+    const double v_hi = sorted_v[sorted_v.size() * 9 / 10], v_lo = sorted_v[sorted_v.size() / 10];
+    const double a_hi = sorted_a[sorted_a.size() * 9 / 10];
+    // Reference jumps: steps larger than 20× the median |Δr|, and more than 1 % of the r range.
+    std::vector<double> dr;
+    double r_min = kInf, r_max = -kInf;
+    for (std::size_t k = 1; k < d.size(); ++k) dr.push_back(std::abs(d.r[k] - d.r[k - 1]));
+    for (double r : d.r) r_min = std::min(r_min, r), r_max = std::max(r_max, r);
+    std::vector<double> drs = dr;
+    std::sort(drs.begin(), drs.end());
+    const double dr_med = drs.empty() ? 0.0 : drs[drs.size() / 2];
+    std::vector<double> jumps;
+    for (std::size_t k = 1; k < d.size(); ++k) {
+      if (dr[k - 1] > 20.0 * dr_med && dr[k - 1] > 0.01 * (r_max - r_min)) jumps.push_back(d.t[k]);
+    }
+    std::size_t jj = 0;
+    for (std::size_t k = 0; k < d.size(); ++k) {
+      const double e2 = (d.theta[k] - sims[i][k]) * (d.theta[k] - sims[i][k]);
+      e_all += e2;
+      n_all += 1;
+      if (std::abs(dth[k]) < 0.1 * dth_max) e_rev += e2, n_rev += 1;
+      while (jj < jumps.size() && jumps[jj] + 0.15 < d.t[k]) ++jj;
+      if (jj < jumps.size() && d.t[k] >= jumps[jj] && d.t[k] <= jumps[jj] + 0.15) e_jump += e2, n_jump += 1;
+      if (av[k] >= v_hi) e_hv += e2, n_hv += 1;
+      if (av[k] <= v_lo) e_lv += e2, n_lv += 1;
+      if (aa[k] >= a_hi) e_ha += e2, n_ha += 1;
+    }
+    if (runs[i].kind == "sine" && runs[i].freq_hz) {
+      const double amp = 0.5 * (r_max - r_min);
+      if (amp > 0) sine_rel.push_back({*runs[i].freq_hz, loc.run_rms[i] / amp});
+    }
+  }
+  if (!(n_all > 0)) return loc;
+  loc.rms = std::sqrt(e_all / n_all);
+  auto conc = [&](double e, double n) {
+    return (n > 0 && e_all > 0) ? (e / e_all) / (n / n_all) : kNaN;
+  };
+  loc.reversal_concentration = conc(e_rev, n_rev);
+  loc.jump_concentration = n_jump > 0 ? conc(e_jump, n_jump) : kNaN;
+  loc.high_command_concentration = conc(e_hv, n_hv);
+  loc.low_command_concentration = conc(e_lv, n_lv);
+  loc.high_alpha_concentration = conc(e_ha, n_ha);
+  if (sine_rel.size() >= 4) {
+    std::sort(sine_rel.begin(), sine_rel.end());
+    const std::size_t h = sine_rel.size() / 2;
+    double lo = 0, hi = 0;
+    for (std::size_t k = 0; k < h; ++k) lo += sine_rel[k].second;
+    for (std::size_t k = h; k < sine_rel.size(); ++k) hi += sine_rel[k].second;
+    lo /= static_cast<double>(h);
+    hi /= static_cast<double>(sine_rel.size() - h);
+    loc.low_vs_high_frequency = hi > 0 ? lo / hi : kNaN;
+  }
+  // Words.
+  auto say = [&](double c, const std::string& where) {
+    if (std::isfinite(c) && c >= 1.5)
+      loc.findings.push_back("errors concentrate " + where + ": " + num(c, "%.1f") +
+                             "× their share of the samples");
+  };
+  say(loc.reversal_concentration, "at velocity reversals (|θ̇| below 10 % of its largest value)");
+  say(loc.jump_concentration, "in the 0.15 s after reference jumps (timing, transients)");
+  say(loc.high_command_concentration, "where |v| is largest (top 10 % of each run)");
+  say(loc.low_command_concentration, "where |v| is smallest (bottom 10 % of each run)");
+  say(loc.high_alpha_concentration, "where α is largest (top 10 % of each run)");
+  if (std::isfinite(loc.low_vs_high_frequency)) {
+    if (loc.low_vs_high_frequency >= 1.5) {
+      loc.findings.push_back("errors concentrate in the low-frequency sine runs: their RMS error "
+                             "relative to the amplitude is " + num(loc.low_vs_high_frequency, "%.1f") +
+                             "× that of the high-frequency ones");
+    } else if (loc.low_vs_high_frequency <= 1.0 / 1.5) {
+      loc.findings.push_back("errors concentrate in the high-frequency sine runs: their RMS error "
+                             "relative to the amplitude is " + num(1.0 / loc.low_vs_high_frequency, "%.1f") +
+                             "× that of the low-frequency ones");
+    }
+  }
+  // The worst runs.
+  std::vector<std::size_t> order;
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    if (std::isfinite(loc.run_rms[i])) order.push_back(i);
+  }
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return loc.run_rms[a] > loc.run_rms[b]; });
+  if (order.size() >= 2) {
+    std::string s = "largest errors in runs ";
+    for (std::size_t k = 0; k < std::min<std::size_t>(3, order.size()); ++k) {
+      s += (k ? ", " : "") + runs[order[k]].name + " (RMS " + num(loc.run_rms[order[k]]) + ")";
+    }
+    s += "; overall RMS " + num(loc.rms);
+    loc.findings.push_back(s);
+  }
+  if (loc.findings.size() <= 1) {
+    loc.findings.insert(loc.findings.begin(),
+                        "the residual is spread over the state: no concentration of 1.5× or more "
+                        "at reversals, jumps, large or small |v| or α");
+  }
+  return loc;
+}
+
+}  // namespace
+
+JointModelAtPose diagnosed_model(const JointModelAtPose& base, const Effects& e,
+                                 const ModelScales& scales) {
+  JointModelAtPose m = base;
+  auto factor = [](const std::vector<double>& f, std::size_t k) {
+    return f.empty() ? 1.0 : f[std::min(k, f.size() - 1)];
+  };
+  m.c_linear *= factor(scales.c, 0);
+  m.beta_tilde_linear *= factor(scales.beta, 0);
+  // C_n = 1/(C_n1·I) (eq. (40)) and β̃_j = 1/(β̃_j1·I) (eq. (42)): a factor f on C_n divides C_n1.
+  for (std::size_t k = 0; k < m.alpha.n_breakpoints; ++k) m.alpha.c_n1[k] /= factor(scales.c, k);
+  m.alpha.beta_n1[0] /= factor(scales.beta, 0);
+  m.alpha.beta_n1[1] /= factor(scales.beta, 1);
+  m.effects = e;
+  return m;
+}
+
+std::vector<std::vector<double>> simulate_diagnosed(const std::vector<DiagnoseRun>& runs,
+                                                    const Effects& e,
+                                                    const ModelScales& scales,
+                                                    const SimulationOptions& simulation,
+                                                    unsigned threads) {
+  std::vector<std::vector<double>> out(runs.size());
+  parallel_for(runs.size(), threads, [&](std::size_t i) {
+    const SimulationResult s =
+        simulate_run(runs[i], diagnosed_model(runs[i].model, e, scales), simulation);
+    if (s.ok) out[i] = s.theta;
+  });
+  return out;
+}
+
+DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseOptions& opt) {
+  const auto t_start = std::chrono::steady_clock::now();
+  DiagnoseResult res;
+  if (runs_in.empty()) {
+    res.message = "no runs to diagnose";
+    return res;
+  }
+  for (std::size_t i = 0; i < runs_in.size(); ++i) {
+    if (runs_in[i].data == nullptr || runs_in[i].data->size() < 50) {
+      res.message = "run " + runs_in[i].name + " has fewer than 50 samples";
+      return res;
+    }
+  }
+  std::vector<EffectKind> catalogue = opt.candidates;
+  if (catalogue.empty()) catalogue.assign(kAllEffectKinds.begin(), kAllEffectKinds.end());
+  // `none` first: the others are judged against it.
+  catalogue.erase(std::remove(catalogue.begin(), catalogue.end(), EffectKind::kNone), catalogue.end());
+  catalogue.insert(catalogue.begin(), EffectKind::kNone);
+
+  // All runs share the effects of the first run's model as the starting point.
+  Effects current = runs_in.front().model.effects;
+  ModelScales ms;  // the coefficient factors: one per α-model breakpoint and β̃ end, or 1 and 1
+  if (runs_in.front().model.use_alpha) {
+    ms.c.assign(runs_in.front().model.alpha.n_breakpoints, 1.0);
+    ms.beta.assign(2, 1.0);
+  }
+  const std::vector<std::size_t> fit_runs = choose_fit_runs(runs_in, opt.max_fit_runs);
+  res.fit_runs = fit_runs;
+  // The fit runs cut to their last fit_window_s (the other runs are not used for fitting).
+  std::vector<RunData> windows(fit_runs.size());
+  std::vector<DiagnoseRun> runs = runs_in;
+  for (std::size_t j = 0; j < fit_runs.size(); ++j) {
+    const RunData& d = *runs_in[fit_runs[j]].data;
+    std::size_t k0 = 0;
+    if (opt.fit_window_s > 0.0) {
+      while (k0 + 50 < d.size() && d.t.back() - d.t[k0] > opt.fit_window_s) ++k0;
+    }
+    RunData& w = windows[j];
+    // The α filter and the delay line start as the run left them: 0.3 s of commands before.
+    const std::size_t h0 = k0 > 300 ? k0 - 300 : 0;
+    runs[fit_runs[j]].command_history.assign(d.v.begin() + static_cast<std::ptrdiff_t>(h0),
+                                             d.v.begin() + static_cast<std::ptrdiff_t>(k0));
+    w.t.assign(d.t.begin() + static_cast<std::ptrdiff_t>(k0), d.t.end());
+    w.r.assign(d.r.begin() + static_cast<std::ptrdiff_t>(k0), d.r.end());
+    w.theta.assign(d.theta.begin() + static_cast<std::ptrdiff_t>(k0), d.theta.end());
+    w.v.assign(d.v.begin() + static_cast<std::ptrdiff_t>(k0), d.v.end());
+    runs[fit_runs[j]].data = &w;
+  }
+  std::vector<std::size_t> all(runs.size());
+  for (std::size_t i = 0; i < all.size(); ++i) all[i] = i;
+
+  DataScales sc;
+  {
+    double vd2 = 0, n = 0;
+    sc.theta_min = kInf;
+    sc.theta_max = -kInf;
+    for (std::size_t i : fit_runs) {
+      const RunData& d = *runs[i].data;
+      std::vector<double> dth, ddth;
+      local_quadratic_derivatives(d.t, d.theta, 0.01, dth, ddth);
+      for (std::size_t k = 0; k < d.size(); ++k) {
+        sc.v_max = std::max(sc.v_max == 1.0 && k == 0 && i == fit_runs.front() ? 0.0 : sc.v_max,
+                            std::abs(d.v[k]));
+        vd2 += dth[k] * dth[k];
+        n += 1;
+        sc.theta_min = std::min(sc.theta_min, d.theta[k]);
+        sc.theta_max = std::max(sc.theta_max, d.theta[k]);
+      }
+    }
+    if (!(sc.v_max > 0)) sc.v_max = 1.0;
+    sc.theta_dot_rms = n > 0 ? std::sqrt(vd2 / n) : 1.0;
+    if (!(sc.theta_dot_rms > 0)) sc.theta_dot_rms = 1.0;
+  }
+  // The Coulomb term's smoothing: 1 % of the RMS velocity (a sharp switch on the data's scale).
+  if (!(current.coulomb_v > 0.0)) current.coulomb_smoothing_rad_s = 0.01 * sc.theta_dot_rms;
+
+  // Folds: the first and the second half (in time) of every fit window, each started from the
+  // measured state with its command history. Both folds see every run, so the model's
+  // coefficient factors stay determined; fitting one half and predicting the other tests the
+  // effect on data it was not fitted on.
+  std::vector<RunData> halves(2 * fit_runs.size());
+  std::vector<std::size_t> fold[2];
+  for (std::size_t j = 0; j < fit_runs.size(); ++j) {
+    const DiagnoseRun src = runs[fit_runs[j]];  // a copy: runs grows below
+    const RunData& w = *src.data;
+    const std::size_t mid = w.size() / 2;
+    for (int f = 0; f < 2; ++f) {
+      const std::size_t a = f == 0 ? 0 : mid, b = f == 0 ? mid : w.size();
+      if (b - a < 50) continue;
+      RunData& h = halves[2 * j + static_cast<std::size_t>(f)];
+      auto cut = [&](const std::vector<double>& x) {
+        return std::vector<double>(x.begin() + static_cast<std::ptrdiff_t>(a),
+                                   x.begin() + static_cast<std::ptrdiff_t>(b));
+      };
+      h.t = cut(w.t);
+      h.r = cut(w.r);
+      h.theta = cut(w.theta);
+      h.v = cut(w.v);
+      DiagnoseRun hr = src;
+      hr.data = &h;
+      if (f == 1) {  // history: the commands before the second half
+        std::vector<double> hist = src.command_history;
+        hist.insert(hist.end(), w.v.begin(), w.v.begin() + static_cast<std::ptrdiff_t>(mid));
+        if (hist.size() > 300) hist.erase(hist.begin(), hist.end() - 300);
+        hr.command_history = std::move(hist);
+      }
+      fold[f].push_back(runs.size());
+      runs.push_back(std::move(hr));
+    }
+  }
+  const bool can_cv = !fold[0].empty() && !fold[1].empty();
+
+  const std::vector<std::vector<double>> sims0 = simulate_diagnosed(runs_in, current, ms, opt.simulation, opt.threads);
+  res.before = locate(runs_in, sims0);
+  res.error_before = res.before.rms;
+  std::vector<EffectKind> named_kinds;  // active kinds fitted each round
+  for (EffectKind k : kAllEffectKinds) {
+    if (effect_active(current, k)) named_kinds.push_back(k);
+  }
+
+  for (std::size_t round = 0; round < opt.max_effects; ++round) {
+    DiagnoseRound rd;
+    {
+      const auto rr = run_rms_with(runs_in, all, current, ms, opt);
+      rd.error_before = pooled_rms(runs_in, rr, all);
+    }
+    // The current model's simulations along the fit runs, for the equation-error starts.
+    std::vector<SimulationResult> fit_sims(runs.size());
+    parallel_for(fit_runs.size(), opt.threads, [&](std::size_t j) {
+      const std::size_t i = fit_runs[j];
+      fit_sims[i] = simulate_run(runs[i], diagnosed_model(runs[i].model, current, ms), opt.simulation);
+    });
+    const TorqueResidual tr = torque_residual(runs, fit_runs, fit_sims, current);
+    double none_train_rms = kNaN;
+
+    for (EffectKind kind : catalogue) {
+      CandidateScore cand;
+      cand.effect = kind;
+      const bool already = std::find(named_kinds.begin(), named_kinds.end(), kind) != named_kinds.end();
+      if (already) {
+        cand.message = "already in the model";
+        rd.candidates.push_back(cand);
+        continue;
+      }
+      // Starts of the new effect.
+      Effects e = current;
+      switch (kind) {
+        case EffectKind::kCoulombFriction:
+        case EffectKind::kOffsetTorque:
+        case EffectKind::kGravity:
+        case EffectKind::kCogging:
+          equation_error_start(kind, tr, sc, e);
+          break;
+        case EffectKind::kTimeDelay:
+          e.delay_s = scan_start(runs, fit_runs, e, &Effects::delay_s,
+                                 {0.0005, 0.001, 0.002, 0.004, 0.008, 0.016, 0.032}, ms, opt);
+          break;
+        case EffectKind::kSaturation:
+          e.saturation_v = scan_start(runs, fit_runs, e, &Effects::saturation_v,
+                                      {0.95 * sc.v_max, 0.8 * sc.v_max, 0.6 * sc.v_max,
+                                       0.4 * sc.v_max, 0.25 * sc.v_max},
+                                      ms, opt);
+          break;
+        case EffectKind::kDeadzone:
+          e.deadzone_v = scan_start(runs, fit_runs, e, &Effects::deadzone_v,
+                                    {0.005 * sc.v_max, 0.01 * sc.v_max, 0.02 * sc.v_max,
+                                     0.05 * sc.v_max, 0.1 * sc.v_max, 0.2 * sc.v_max},
+                                    ms, opt);
+          break;
+        case EffectKind::kNone:
+          break;
+      }
+      std::vector<ParamBlock> blocks;
+      for (EffectKind k : named_kinds) blocks.push_back(param_block(k, e, sc));
+      if (kind != EffectKind::kNone) blocks.push_back(param_block(kind, e, sc));
+      Effects base = current;
+      // Fit on all fit runs, then on each fold from there.
+      OutputErrorProblem pr = make_problem(runs, fit_runs, blocks, base, ms, opt);
+      OutputErrorOptions oo;
+      oo.threads = opt.threads;
+      oo.max_iterations = 15;
+      const OutputErrorResult full = fit_output_error(pr, oo);
+      if (!full.ok) {
+        cand.message = full.message;
+        rd.candidates.push_back(cand);
+        continue;
+      }
+      cand.ok = true;
+      cand.scales = scales_of(ms, full.values);
+      cand.effects = effects_of(blocks, base, ms, full.values);
+      if (kind == EffectKind::kNone) none_train_rms = full.rms;
+      const bool hopeless = kind != EffectKind::kNone && std::isfinite(none_train_rms) &&
+                            !(full.rms <= (1.0 - 0.5 * opt.significance) * none_train_rms);
+      if (hopeless) {
+        cand.score = full.rms;
+        cand.fold_scores = {full.rms, full.rms};
+        cand.message = "training RMS not below (1 − significance/2) × that of none: not cross-validated";
+        cand.cross_validated = false;
+      } else if (can_cv) {
+        double ss = 0.0, n = 0.0;
+        for (int f = 0; f < 2; ++f) {
+          OutputErrorProblem pf = make_problem(runs, fold[f], blocks, base, ms, opt);
+          for (std::size_t j = 0; j < pf.parameters.size(); ++j)
+            pf.parameters[j].initial = std::clamp(full.values[j], pf.parameters[j].lower, pf.parameters[j].upper);
+          OutputErrorOptions of = oo;
+          of.max_iterations = 8;
+          const OutputErrorResult r = fit_output_error(pf, of);
+          const std::vector<double>& p = r.ok ? r.values : full.values;
+          const Effects ef = effects_of(blocks, base, ms, p);
+          const std::vector<std::size_t>& held = fold[1 - f];
+          const auto rr = run_rms_with(runs, held, ef, scales_of(ms, p), opt);
+          const double fr = pooled_rms(runs, rr, held);
+          cand.fold_scores[static_cast<std::size_t>(1 - f)] = std::isfinite(fr) ? fr : kInf;
+          for (std::size_t i : held) {
+            const double m = static_cast<double>(runs[i].data->size());
+            ss += std::isfinite(rr[i]) ? rr[i] * rr[i] * m : kInf;
+            n += m;
+          }
+        }
+        cand.score = n > 0 ? std::sqrt(ss / n) : kInf;
+      } else {
+        cand.score = full.rms;
+        cand.fold_scores = {full.rms, full.rms};
+      }
+      const auto rr_all = run_rms_with(runs_in, all, cand.effects, cand.scales, opt);
+      cand.error_after = pooled_rms(runs_in, rr_all, all);
+      rd.candidates.push_back(cand);
+    }
+    // The winner: lowest score; named only if significantly better than `none` in both folds.
+    const CandidateScore* none = nullptr;
+    const CandidateScore* best = nullptr;
+    for (const auto& c : rd.candidates) {
+      if (!c.ok) continue;
+      if (c.effect == EffectKind::kNone) none = &c;
+      if (!c.cross_validated) continue;  // pruned: cannot be significantly better
+      if (best == nullptr || c.score < best->score) best = &c;
+    }
+    if (none == nullptr) {
+      res.message = "the model without a new effect could not be fitted: " +
+                    (rd.candidates.empty() ? std::string() : rd.candidates.front().message);
+      res.rounds.push_back(rd);
+      break;
+    }
+    bool named = best != nullptr && best->effect != EffectKind::kNone;
+    if (named) {
+      const double keep = 1.0 - opt.significance;
+      named = best->score <= keep * none->score && best->fold_scores[0] <= keep * none->fold_scores[0] &&
+              best->fold_scores[1] <= keep * none->fold_scores[1];
+    }
+    rd.named = named ? best->effect : EffectKind::kNone;
+    if (!named) {  // `none`: the model stays as it was
+      rd.error_after = rd.error_before;
+      res.rounds.push_back(rd);
+      break;
+    }
+    current = best->effects;
+    ms = best->scales;
+    rd.error_after = best->error_after;
+    res.rounds.push_back(rd);
+    named_kinds.push_back(rd.named);
+    res.effects_named.push_back(rd.named);
+  }
+  res.effects = current;
+  res.scales = ms;
+  const std::vector<std::vector<double>> sims1 = simulate_diagnosed(runs_in, current, ms, opt.simulation, opt.threads);
+  res.after = locate(runs_in, sims1);
+  res.error_after = res.after.rms;
+  res.ok = !res.rounds.empty() && res.message.empty();
+  res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  return res;
+}
+
+std::vector<DiagnoseRun> diagnose_runs(const Dataset& dataset, const std::vector<RunData>& data,
+                                       const DatasetFit& fit) {
+  std::vector<DiagnoseRun> runs;
+  for (std::size_t p = 0; p < fit.poses.size(); ++p) {
+    const JointModelAtPose m = fit.model_for_pose(p);
+    if (!(m.c_linear > 0.0) || !(m.beta_tilde_linear > 0.0)) continue;
+    for (std::size_t i : fit.poses[p].runs) {
+      const RunData& d = data[i];
+      const std::vector<double>* en = d.column("torque_enable");
+      if (en != nullptr && std::find(en->begin(), en->end(), 0.0) != en->end()) continue;
+      DiagnoseRun r;
+      r.data = &d;
+      r.controller = to_controller(dataset.runs[i].controller);
+      r.model = m;
+      r.name = dataset.runs[i].file;
+      r.kind = dataset.runs[i].kind;
+      r.freq_hz = dataset.runs[i].freq_hz;
+      runs.push_back(r);
+    }
+  }
+  return runs;
+}
+
+DiagnoseResult diagnose_dataset(const Dataset& dataset, const std::vector<RunData>& data,
+                                DiagnoseOptions options, const FitPipelineOptions& fit_options,
+                                DatasetFit* fit_out) {
+  FitPipelineOptions fo = fit_options;
+  fo.validate = false;
+  if (fo.threads == 0) fo.threads = options.threads;
+  DatasetFit fit = fit_dataset(dataset, data, fo);
+  options.simulation = fit.simulation;
+  const std::vector<DiagnoseRun> runs = diagnose_runs(dataset, data, fit);
+  DiagnoseResult res;
+  if (runs.empty()) {
+    res.message = "no run has a fitted model to diagnose";
+  } else {
+    res = diagnose(runs, options);
+  }
+  if (fit_out != nullptr) *fit_out = std::move(fit);
+  return res;
+}
+
+}  // namespace alphainv
