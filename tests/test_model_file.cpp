@@ -84,5 +84,123 @@ TEST(ModelFile, BadInputNamesFileAndKey) {
   EXPECT_THROW(read_model_file("/nonexistent/model.json"), Error);
 }
 
+ModelFile model_with_effects() {
+  ModelFile m = sample_model();
+  m.effects.coulomb_v = 0.05;
+  m.effects.coulomb_smoothing_rad_s = 0.02;
+  m.effects.offset_v = -0.03;
+  m.effects.gravity_v = 0.2;
+  m.effects.gravity_theta0_rad = 0.4;
+  m.effects.cogging_v = 0.01;
+  m.effects.cogging_period_rad = 0.1;
+  m.effects.cogging_phase_rad = 1.5;
+  m.effects.delay_s = 0.004;
+  m.effects.saturation_v = 1.2;
+  m.effects.deadzone_v = 0.02;
+  m.loop_period_s = 1e-3;
+  return m;
+}
+
+TEST(ModelFile, RoundTripsEffectsAndLoopPeriod) {
+  const ModelFile m = model_with_effects();
+  const std::string text = format_model_file(m);
+  const ModelFile back = parse_model_file(text, "model.json");
+  EXPECT_EQ(back.effects.coulomb_v, 0.05);
+  EXPECT_EQ(back.effects.coulomb_smoothing_rad_s, 0.02);
+  EXPECT_EQ(back.effects.offset_v, -0.03);
+  EXPECT_EQ(back.effects.gravity_v, 0.2);
+  EXPECT_EQ(back.effects.gravity_theta0_rad, 0.4);
+  EXPECT_EQ(back.effects.cogging_v, 0.01);
+  EXPECT_EQ(back.effects.cogging_period_rad, 0.1);
+  EXPECT_EQ(back.effects.cogging_phase_rad, 1.5);
+  EXPECT_EQ(back.effects.delay_s, 0.004);
+  EXPECT_EQ(back.effects.saturation_v, 1.2);
+  EXPECT_EQ(back.effects.deadzone_v, 0.02);
+  EXPECT_EQ(back.loop_period_s, 1e-3);
+  // The list holds the active effects in catalogue order, by catalogue name.
+  const std::size_t c = text.find("\"coulomb_friction\""), o = text.find("\"offset_torque\""),
+                    d = text.find("\"deadzone\"");
+  ASSERT_NE(c, std::string::npos);
+  ASSERT_NE(o, std::string::npos);
+  ASSERT_NE(d, std::string::npos);
+  EXPECT_LT(c, o);
+  EXPECT_LT(o, d);
+  EXPECT_NE(text.find("\"loop_period_s\": 0.001"), std::string::npos) << text;
+}
+
+TEST(ModelFile, NoEffectsWritesAnEmptyListAndReadsBackAllOff) {
+  ModelFile m = sample_model();
+  m.effects.offset_v = 0.1;  // one effect only: the others stay at their (off) defaults
+  const ModelFile back = parse_model_file(format_model_file(m), "model.json");
+  EXPECT_EQ(back.effects.offset_v, 0.1);
+  EXPECT_EQ(active_effects(back.effects), std::vector<EffectKind>{EffectKind::kOffsetTorque});
+  EXPECT_TRUE(std::isinf(back.effects.saturation_v));
+  const std::string none = format_model_file(sample_model());
+  EXPECT_NE(none.find("\"effects\": []"), std::string::npos) << none;
+  EXPECT_TRUE(active_effects(parse_model_file(none, "model.json").effects).empty());
+}
+
+TEST(ModelFile, OldFileWithoutEffectsOrSimulationReads) {
+  // A model.json as the first omni_fit wrote it: no "effects", no "simulation".
+  const std::string old = R"({"schema": "alphainv-model/1", "tool_version": "alphainv 0.1.0",
+    "controller": {"kp": 2, "ki": 0, "kd": 0, "derivative_on": "error", "v_limit": null},
+    "inertia_model": null, "poses": [{"gamma1_deg": 65, "gamma2_deg": 90, "C_linear": 6.2,
+    "beta_tilde_linear": 229}], "alpha_model": null, "notes": []})";
+  const ModelFile m = parse_model_file(old, "old.json");
+  EXPECT_TRUE(active_effects(m.effects).empty());
+  EXPECT_EQ(m.effects.coulomb_smoothing_rad_s, Effects{}.coulomb_smoothing_rad_s);
+  EXPECT_EQ(m.loop_period_s, 0.0);
+  EXPECT_EQ(m.poses.at(0).c_linear, 6.2);
+}
+
+TEST(ModelFile, BadEffectsNameFileAndKeyPath) {
+  const std::string head = R"({"schema": "alphainv-model/1", "controller": {"kp": 2, "ki": 0, "kd": 0, "v_limit": null}, )";
+  auto with = [&](const std::string& tail) { return head + tail + "}"; };
+  const std::string off = R"({"effect": "offset_torque", "parameters": {"offset_v": 0.1}})";
+  expect_error(with(R"("effects": {"offset_v": 1})"), "'effects': expected an array");
+  expect_error(with(R"("effects": [)" + off + R"(, {"effect": "friction", "parameters": {}}])"),
+               "'effects[1].effect': unknown effect \"friction\"");
+  expect_error(with(R"("effects": [)" + off + R"(, {"effect": "time_delay", "parameters": {"delay_s": -0.01}}])"),
+               "'effects[1].parameters.delay_s'");
+  expect_error(with(R"("effects": [{"effect": "time_delay", "parameters": {"delay_s": 2}}])"),
+               "'effects[0].parameters.delay_s'");
+  expect_error(with(R"("effects": [{"effect": "coulomb_friction", "parameters": {"coulomb_v": -0.1}}])"),
+               "'effects[0].parameters.coulomb_v': expected a finite number >= 0");
+  expect_error(with(R"("effects": [{"effect": "coulomb_friction", "parameters": {"coulomb_v": 0.1, "coulomb_smoothing_rad_s": 0}}])"),
+               "'effects[0].parameters.coulomb_smoothing_rad_s'");
+  // NaN has no JSON spelling: null and a string must be refused (an overflowing literal is
+  // malformed JSON: no key to name, but still an alphainv::Error naming the file).
+  expect_error(with(R"("effects": [{"effect": "gravity", "parameters": {"gravity_v": null, "gravity_theta0_rad": 0}}])"),
+               "'effects[0].parameters.gravity_v': expected a number");
+  expect_error(with(R"("effects": [{"effect": "gravity", "parameters": {"gravity_v": "NaN", "gravity_theta0_rad": 0}}])"),
+               "'effects[0].parameters.gravity_v': expected a number");
+  expect_error(with(R"("effects": [{"effect": "gravity", "parameters": {"gravity_v": 1e999, "gravity_theta0_rad": 0}}])"),
+               "malformed JSON");
+  expect_error(with(R"("effects": [{"effect": "gravity", "parameters": {"gravity_v": 0.2}}])"),
+               "'effects[0].parameters.gravity_theta0_rad': missing key");
+  expect_error(with(R"("effects": [{"effect": "cogging", "parameters": {"cogging_v": 0.1, "cogging_period_rad": 0, "cogging_phase_rad": 0}}])"),
+               "'effects[0].parameters.cogging_period_rad'");
+  expect_error(with(R"("effects": [{"effect": "saturation", "parameters": {"saturation_v": -1}}])"),
+               "'effects[0].parameters.saturation_v'");
+  expect_error(with(R"("effects": [{"effect": "deadzone", "parameters": {"deadzone_v": -0.1}}])"),
+               "'effects[0].parameters.deadzone_v'");
+  expect_error(with(R"("effects": [{"effect": "offset_torque", "parameters": {"offset_v": 0.1, "delay_s": 0}}])"),
+               "'effects[0].parameters.delay_s': unknown parameter of offset_torque");
+  expect_error(with(R"("effects": [{"effect": "offset_torque"}])"), "'effects[0].parameters'");
+  expect_error(with(R"("effects": [{"parameters": {}}])"), "'effects[0].effect'");
+  expect_error(with(R"("effects": [)" + off + "," + off + "]"), "'effects[1].effect': effect listed twice");
+  expect_error(with(R"("simulation": {"loop_period_s": -0.001})"), "'simulation.loop_period_s'");
+  expect_error(with(R"("simulation": {"loop_period_s": "1ms"})"), "'simulation.loop_period_s'");
+}
+
+TEST(ModelFile, RefusesToWriteWhatItWouldNotRead) {
+  ModelFile m = sample_model();
+  m.effects.delay_s = std::nan("");
+  EXPECT_THROW(format_model_file(m), Error);
+  m = sample_model();
+  m.loop_period_s = -1.0;
+  EXPECT_THROW(format_model_file(m), Error);
+}
+
 }  // namespace
 }  // namespace alphainv

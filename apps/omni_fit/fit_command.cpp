@@ -224,6 +224,7 @@ int run_fit(const FitCommandOptions& opt) {
     model.c_n1_se = fit.alpha.c_n1_se;
     model.beta_n1_se = fit.alpha.beta_n1_se;
   }
+  model.loop_period_s = fit.simulation.loop_period_s;  // the simulation the model was identified with
   model.notes = fit.notes;
 
   const fs::path out(opt.out_dir);

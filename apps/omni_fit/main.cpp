@@ -13,6 +13,7 @@
 #include "alphainv/metrics.hpp"
 #include "alphainv/simulate.hpp"
 #include "fit_command.hpp"
+#include "simulate_command.hpp"
 
 namespace {
 
@@ -93,9 +94,13 @@ int main(int argc, char** argv) {
   fitc->add_option("--threads", fo.threads, "threads for the validation runs (default: all cores)");
   fitc->add_option("--breakpoints", fo.n_breakpoints, "number of alpha breakpoints N (2..8)")
       ->capture_default_str()->check(CLI::Range(2, 8));
+  omni_fit::SimulateCommandOptions so;
+  CLI::App* simc = omni_fit::add_simulate_subcommand(app, so);
   app.footer("Examples:\n  omni_fit fit data/omni_yaw_sim -o out/fit --json\n"
+             "  omni_fit simulate out/fit/model.json --pose 60.08,87 --sine 3Hz -o run.csv\n"
              "  omni_fit demo --gamma1 60.08 --gamma2 87 --amplitude 0.07\n"
-             "Exit codes: 0 ok, 1 usage, 2 bad input (the message names the file), 3 nothing could be fitted.");
+             "Exit codes: 0 ok, 1 usage, 2 bad input (the message names the file), 3 nothing could be fitted\n"
+             "(fit) or the simulation failed (simulate).");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -104,5 +109,6 @@ int main(int argc, char** argv) {
   }
   if (*demo) return run_demo(g1, g2, amp, kp, cvode);
   if (*fitc) return omni_fit::run_fit(fo);
+  if (*simc) return omni_fit::run_simulate(so);
   return 0;
 }

@@ -12,6 +12,7 @@
 
 #include "alphainv/controller.hpp"
 #include "alphainv/damping_model.hpp"
+#include "alphainv/effects.hpp"
 #include "alphainv/inertia_model.hpp"
 
 namespace alphainv {
@@ -42,10 +43,20 @@ struct ModelFile {
   AlphaModel alpha;              ///< α-invariant model (38)-(42)
   std::array<double, kMaxBreakpoints> c_n1_se{};  ///< SE of C_n1
   std::array<double, 2> beta_n1_se{};             ///< SE of β̃_n1
+  /// Effects beyond the α-model (effects.hpp) that `omni_fit diagnose` added; all off by default.
+  /// JSON: "effects": [{"effect": "<catalogue name>", "parameters": {"<name>": x, …}}, …], the
+  /// active effects in catalogue order with the parameters effect_parameters() lists (and
+  /// coulomb_smoothing_rad_s with coulomb_friction). Absent in older files: all off.
+  Effects effects;
+  /// The simulation the model was identified with [s]: > 0 the digital loop at this tick period
+  /// (SimulationOptions::loop_period_s), 0 the continuous law (43). JSON: "simulation":
+  /// {"loop_period_s": x}; absent in older files: 0.
+  double loop_period_s = 0.0;
   std::vector<std::string> notes;                 ///< what the fit could not do, choices made
 };
 
-/// Writes model.json atomically (temporary file, then rename). Throws alphainv::Error on I/O.
+/// Writes model.json atomically (temporary file, then rename). Throws alphainv::Error on I/O, and
+/// (before writing anything) on effects or loop_period_s that read_model_file would refuse.
 void write_model_file(const std::filesystem::path& path, const ModelFile& model);
 /// Reads model.json; throws alphainv::Error naming the file and the key on anything malformed.
 ModelFile read_model_file(const std::filesystem::path& path);

@@ -5,6 +5,8 @@
 #include <fstream>
 #include <limits>
 #include <sstream>
+#include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -51,9 +53,94 @@ std::array<double, N> get_array(const json& obj, const char* key, std::size_t n,
   return out;
 }
 
+/// The parameters model.json stores for an effect of `kind`: effect_parameters(kind), and the
+/// Coulomb smoothing ε with the Coulomb friction (a modelling choice the simulation needs).
+std::vector<EffectParameter> stored_effect_parameters(EffectKind kind) {
+  std::vector<EffectParameter> params = effect_parameters(kind);
+  if (kind == EffectKind::kCoulombFriction) {
+    params.push_back({"coulomb_smoothing_rad_s", &Effects::coulomb_smoothing_rad_s, "position unit/s"});
+  }
+  return params;
+}
+
+json format_effects(const Effects& e) {
+  json list = json::array();
+  for (EffectKind kind : active_effects(e)) {
+    json params = json::object();
+    for (const EffectParameter& p : stored_effect_parameters(kind)) params[p.name] = num(e.*p.member);
+    list.push_back({{"effect", effect_name(kind)}, {"parameters", params}});
+  }
+  return list;
+}
+
+/// Reads the "effects" list; every error names `file` and the key path, e.g.
+/// effects[1].parameters.delay_s.
+Effects parse_effects(const json& list, const std::string& file) {
+  Effects effects;
+  if (list.is_null()) return effects;
+  if (!list.is_array()) throw Error("expected an array of effects, found " + list.dump(), file, 0, "effects");
+  std::vector<EffectKind> seen;
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const std::string path = "effects[" + std::to_string(i) + "]";
+    const json& entry = list[i];
+    if (!entry.is_object()) throw Error("expected an object, found " + entry.dump(), file, 0, path);
+    if (!entry.contains("effect") || !entry["effect"].is_string()) {
+      throw Error("expected a catalogue name (string)", file, 0, path + ".effect");
+    }
+    EffectKind kind = EffectKind::kNone;
+    try {
+      kind = effect_kind_from_name(entry["effect"].get<std::string>(), path + ".effect");
+    } catch (const Error& e) {
+      throw Error(e.message(), file, 0, e.field());
+    }
+    if (kind == EffectKind::kNone) continue;
+    for (EffectKind k : seen) {
+      if (k == kind) throw Error("effect listed twice", file, 0, path + ".effect");
+    }
+    seen.push_back(kind);
+    const std::string ppath = path + ".parameters";
+    if (!entry.contains("parameters") || !entry["parameters"].is_object()) {
+      throw Error("expected an object of parameters", file, 0, ppath);
+    }
+    const json& params = entry["parameters"];
+    const std::vector<EffectParameter> known = stored_effect_parameters(kind);
+    for (auto it = params.begin(); it != params.end(); ++it) {
+      bool ok = false;
+      for (const EffectParameter& p : known) ok = ok || it.key() == p.name;
+      if (!ok) {
+        std::string names;
+        for (const EffectParameter& p : known) names += std::string(names.empty() ? "" : ", ") + p.name;
+        throw Error("unknown parameter of " + std::string(effect_name(kind)) + "; expected " + names,
+                    file, 0, ppath + "." + it.key());
+      }
+    }
+    // This entry's values on an otherwise default (valid) Effects: validate_effects can then only
+    // object to this entry, and its field names the entry's key path.
+    Effects one;
+    for (const EffectParameter& p : known) {
+      const bool optional = p.member == &Effects::coulomb_smoothing_rad_s;
+      if (optional && !params.contains(p.name)) continue;
+      one.*p.member = get_num(params, p.name, file, ppath + ".");
+    }
+    try {
+      validate_effects(one, ppath + ".");
+    } catch (const Error& e) {
+      throw Error(e.message(), file, 0, e.field());
+    }
+    for (const EffectParameter& p : known) effects.*p.member = one.*p.member;
+  }
+  return effects;
+}
+
 }  // namespace
 
 std::string format_model_file(const ModelFile& m) {
+  // Never write what read_model_file would refuse.
+  validate_effects(m.effects, "effects.");
+  if (!std::isfinite(m.loop_period_s) || m.loop_period_s < 0.0) {
+    throw Error("expected loop_period_s >= 0 (0: continuous), got " + std::to_string(m.loop_period_s),
+                {}, 0, "simulation.loop_period_s");
+  }
   json j;
   j["schema"] = kModelSchema;
   j["tool_version"] = m.tool_version;
@@ -103,6 +190,8 @@ std::string format_model_file(const ModelFile& m) {
   } else {
     j["alpha_model"] = nullptr;
   }
+  j["effects"] = format_effects(m.effects);
+  j["simulation"] = {{"loop_period_s", m.loop_period_s}};
   j["notes"] = m.notes;
   return j.dump(2) + "\n";
 }
@@ -111,7 +200,7 @@ ModelFile parse_model_file(const std::string& text, const std::string& file) {
   json j;
   try {
     j = json::parse(text);
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {  // parse_error, and out_of_range for numbers like 1e999
     throw Error(std::string("malformed JSON: ") + e.what(), file);
   }
   if (!j.is_object()) throw Error("expected a JSON object", file);
@@ -192,6 +281,14 @@ ModelFile parse_model_file(const std::string& text, const std::string& file) {
     if (a.contains("beta_n1_se")) m.beta_n1_se = get_array<2>(a, "beta_n1_se", 2, file, "alpha_model.", true);
     if (!m.alpha.valid()) {
       throw Error("breakpoints must increase and C_n1, beta_n1 be positive", file, 0, "alpha_model");
+    }
+  }
+  if (j.contains("effects")) m.effects = parse_effects(j["effects"], file);
+  if (j.contains("simulation") && !j["simulation"].is_null()) {
+    if (!j["simulation"].is_object()) throw Error("expected an object", file, 0, "simulation");
+    m.loop_period_s = get_num(j["simulation"], "loop_period_s", file, "simulation.");
+    if (m.loop_period_s < 0.0) {
+      throw Error("expected loop_period_s >= 0 (0: continuous)", file, 0, "simulation.loop_period_s");
     }
   }
   if (j.contains("notes") && j["notes"].is_array()) {
