@@ -1,5 +1,10 @@
 #pragma once
+#include <filesystem>
 #include <string>
+
+#include "alphainv/dataset.hpp"
+#include "alphainv/fit_pipeline.hpp"
+#include "alphainv/model_file.hpp"
 
 namespace omni_fit {
 
@@ -15,5 +20,17 @@ struct FitCommandOptions {
 
 /// `omni_fit fit`: returns the process exit code (0 ok, 2 bad input, 3 fit failure).
 int run_fit(const FitCommandOptions& options);
+
+/// model.json contents of a fit of `ds` (throws alphainv::Error when the dataset cannot be hashed).
+alphainv::ModelFile make_model_file(const alphainv::Dataset& ds, const alphainv::DatasetFit& fit);
+
+/// Writes `text` to `path` atomically (temporary file, then rename); throws alphainv::Error.
+void write_text_atomic(const std::filesystem::path& path, const std::string& text);
+
+/// model.json contents of a fit of `ds` (throws alphainv::Error when the dataset cannot be hashed).
+alphainv::ModelFile make_model_file(const alphainv::Dataset& ds, const alphainv::DatasetFit& fit);
+
+/// Writes `text` to `path` atomically (temporary file, then rename); throws alphainv::Error.
+void write_text_atomic(const std::filesystem::path& path, const std::string& text);
 
 }  // namespace omni_fit

@@ -1,6 +1,6 @@
-// omni_fit: offline identification and simulation for the α-invariant model.
-// This first version carries the `demo` subcommand: the paper's model simulated on the paper's
-// experiment plan at one pose (the `fit` and `simulate` subcommands come with the data pipeline).
+// omni_fit: offline identification, simulation and diagnosis for the α-invariant model.
+// Subcommands: fit (fit_command.cpp), simulate (simulate_command.cpp), diagnose
+// (diagnose_command.cpp), sweep (sweep_command.cpp) and demo (the paper's model on its plan).
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -12,7 +12,9 @@
 #include "alphainv/inertia_model.hpp"
 #include "alphainv/metrics.hpp"
 #include "alphainv/simulate.hpp"
+#include "diagnose_command.hpp"
 #include "fit_command.hpp"
+#include "sweep_command.hpp"
 #include "simulate_command.hpp"
 
 namespace {
@@ -96,8 +98,13 @@ int main(int argc, char** argv) {
       ->capture_default_str()->check(CLI::Range(2, 8));
   omni_fit::SimulateCommandOptions so;
   CLI::App* simc = omni_fit::add_simulate_subcommand(app, so);
+  omni_fit::DiagnoseCommandOptions dgo;
+  CLI::App* diagc = omni_fit::add_diagnose_subcommand(app, dgo);
+  omni_fit::SweepCommandOptions swo;
+  CLI::App* sweepc = omni_fit::add_sweep_subcommand(app, swo);
   app.footer("Examples:\n  omni_fit fit data/omni_yaw_sim -o out/fit --json\n"
              "  omni_fit simulate out/fit/model.json --pose 60.08,87 --sine 3Hz -o run.csv\n"
+             "  omni_fit diagnose data/omni_yaw_sim -o out/diag --json\n"
              "  omni_fit demo --gamma1 60.08 --gamma2 87 --amplitude 0.07\n"
              "Exit codes: 0 ok, 1 usage, 2 bad input (the message names the file), 3 nothing could be fitted\n"
              "(fit) or the simulation failed (simulate).");
@@ -110,5 +117,7 @@ int main(int argc, char** argv) {
   if (*demo) return run_demo(g1, g2, amp, kp, cvode);
   if (*fitc) return omni_fit::run_fit(fo);
   if (*simc) return omni_fit::run_simulate(so);
+  if (*diagc) return omni_fit::run_diagnose(dgo);
+  if (*sweepc) return omni_fit::run_sweep(swo);
   return 0;
 }

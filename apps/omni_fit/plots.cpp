@@ -790,6 +790,18 @@ std::string draw(const std::string& gnuplot, const fs::path& dir, const std::str
 
 }  // namespace
 
+std::string gnuplot_preamble(const std::string& id, const std::string& caption, int width,
+                             int height) {
+  return preamble(id, caption, width, height);
+}
+
+std::string gnuplot_quote(std::string_view s) { return gp_quote(s); }
+
+std::string draw_gnuplot_figure(const std::string& gnuplot, const std::filesystem::path& dir,
+                                const std::string& id) {
+  return draw(gnuplot, dir, id);
+}
+
 PlotSummary write_plots(const Dataset& dataset, const std::vector<RunData>& data,
                         const DatasetFit& fit, const PlotOptions& options) {
   Plotter plotter(dataset, data, fit);

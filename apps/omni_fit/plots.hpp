@@ -68,4 +68,17 @@ std::string draw_report_figures(const alphainv::Dataset& dataset,
                                 const alphainv::DatasetFit& fit, const PlotOptions& options,
                                 std::string& warning);
 
+/// The script preamble every figure uses: a PNG terminal (pngcairo when available) writing to
+/// `outfile` (default <id>.png), NaN as missing data.
+std::string gnuplot_preamble(const std::string& id, const std::string& caption, int width,
+                             int height);
+
+/// A gnuplot string literal of `s`.
+std::string gnuplot_quote(std::string_view s);
+
+/// Runs `gnuplot` on dir/<id>.gp, writing dir/<id>.png atomically (temporary name, renamed when
+/// gnuplot succeeded and wrote a PNG). Returns "" or why not.
+std::string draw_gnuplot_figure(const std::string& gnuplot, const std::filesystem::path& dir,
+                                const std::string& id);
+
 }  // namespace omni_fit

@@ -15,7 +15,8 @@
 ///    default. The best candidate is named only when its cross-validated error is below
 ///    (1 − significance) times that of `none` in both folds; otherwise `none`. Candidates whose
 ///    fit on all fit runs is not below (1 − significance/2) times that of `none` cannot meet
-///    this and are not cross-validated (their score is their training RMS, marked).
+///    this and are not cross-validated (their score is their training RMS, marked). Among
+///    candidates within 5 % of the best score the one with fewest parameters is taken.
 /// 4. With max_effects > 1 it goes round again with the named effects kept (and refitted).
 /// Offline; never throws on what the data cannot support: the result says.
 

@@ -199,8 +199,10 @@ void equation_error_start(EffectKind kind, const TorqueResidual& tr, const DataS
       // a·sin(2πθ/p + φ) = a cos φ·sin(2πθ/p) + a sin φ·cos(2πθ/p), best p on a log grid.
       const double range = std::max(sc.theta_max - sc.theta_min, 1e-9);
       double best_r2 = -kInf;
+      // Periods from range/400 to range/3: a torque periodic in θ shows at least three periods
+      // over the motion (a longer one is a spring or an offset, not cogging).
       for (int g = 0; g < 80; ++g) {
-        const double p = range / 400.0 * std::pow(400.0 / 1.5, g / 79.0);
+        const double p = range / 400.0 * std::pow(400.0 / 3.0, g / 79.0);
         std::vector<double> s(n), c(n);
         for (std::size_t k = 0; k < n; ++k) {
           s[k] = std::sin(kTwoPi * tr.theta[k] / p);
@@ -236,7 +238,11 @@ ParamBlock param_block(EffectKind kind, const Effects& e, const DataScales& sc) 
     if (name == "gravity_v") lo = -2.0 * sc.v_max, hi = 2.0 * sc.v_max;
     if (name == "gravity_theta0_rad" || name == "cogging_phase_rad") lo = -4 * kTwoPi, hi = 4 * kTwoPi;
     if (name == "cogging_v") lo = -sc.v_max, hi = sc.v_max;
-    if (name == "cogging_period_rad") lo = x / 1.3, hi = x * 1.3;
+    if (name == "cogging_period_rad") {
+      lo = x / 1.3;
+      hi = std::min(x * 1.3, (sc.theta_max - sc.theta_min) / 3.0);
+      if (!(hi > lo)) hi = lo * 1.01;
+    }
     if (name == "delay_s") lo = 0.0, hi = 0.2;
     if (name == "saturation_v") lo = 0.02 * sc.v_max, hi = 3.0 * sc.v_max;
     if (name == "deadzone_v") lo = 0.0, hi = 0.5 * sc.v_max;
@@ -728,6 +734,17 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
                     (rd.candidates.empty() ? std::string() : rd.candidates.front().message);
       res.rounds.push_back(rd);
       break;
+    }
+    // Parsimony: among candidates within 5 % of the best score, the one with fewest parameters
+    // (an offset torque is also a gravity term with θ0 = −π/2 over a small range of θ).
+    if (best != nullptr) {
+      for (const auto& c : rd.candidates) {
+        if (!c.ok || !c.cross_validated || c.effect == EffectKind::kNone) continue;
+        if (c.score <= 1.05 * best->score &&
+            effect_parameters(c.effect).size() < effect_parameters(best->effect).size()) {
+          best = &c;
+        }
+      }
     }
     bool named = best != nullptr && best->effect != EffectKind::kNone;
     if (named) {

@@ -1,0 +1,291 @@
+#include "diagnose_command.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "alphainv/dataset.hpp"
+#include "alphainv/diagnose.hpp"
+#include "alphainv/error.hpp"
+#include "alphainv/model_file.hpp"
+#include "alphainv/model_simulation.hpp"
+#include "fit_command.hpp"
+#include "plots.hpp"
+
+namespace omni_fit {
+
+namespace {
+
+using namespace alphainv;
+namespace fs = std::filesystem;
+
+nlohmann::json num(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); }
+
+std::string fmt(double x, const char* f = "%.4g") {
+  if (std::isnan(x)) return "–";
+  if (std::isinf(x)) return x > 0 ? "∞" : "−∞";
+  char b[64];
+  std::snprintf(b, sizeof b, f, x);
+  return b;
+}
+
+nlohmann::json parameters_json(const Effects& e, EffectKind kind) {
+  nlohmann::json p = nlohmann::json::object();
+  for (const auto& par : effect_parameters(kind)) p[par.name] = num(e.*(par.member));
+  return p;
+}
+
+std::string parameters_text(const Effects& e, EffectKind kind) {
+  std::string s;
+  for (const auto& par : effect_parameters(kind)) {
+    s += (s.empty() ? "" : ", ") + std::string(par.name) + " = " + fmt(e.*(par.member)) + " " +
+         par.unit;
+  }
+  return s.empty() ? "–" : s;
+}
+
+/// The model file with the diagnosed effects and coefficient factors folded in.
+void apply_to_model(ModelFile& m, const DiagnoseResult& r) {
+  m.effects = r.effects;
+  if (m.has_alpha_model) {
+    auto f = [](const std::vector<double>& v, std::size_t k) {
+      return v.empty() ? 1.0 : v[std::min(k, v.size() - 1)];
+    };
+    for (std::size_t k = 0; k < m.alpha.n_breakpoints; ++k) m.alpha.c_n1[k] /= f(r.scales.c, k);
+    m.alpha.beta_n1[0] /= f(r.scales.beta, 0);
+    m.alpha.beta_n1[1] /= f(r.scales.beta, 1);
+  }
+  std::string names;
+  for (EffectKind k : r.effects_named) names += (names.empty() ? "" : ", ") + std::string(effect_name(k));
+  m.notes.push_back("omni_fit diagnose added: " + (names.empty() ? std::string("nothing (none)") : names) +
+                    "; the α-model's C_n and β̃ were refitted with it (factors applied to C_n1, β̃_n1)");
+}
+
+/// Residual figures: θ − θ_sim before and after for the worst runs (at most 3).
+std::string residual_figures(const fs::path& out, const std::vector<DiagnoseRun>& runs,
+                             const DiagnoseResult& r, const SimulationOptions& sim,
+                             const Effects& effects_before, std::string& warning) {
+  const fs::path dir = out / "plots";
+  fs::create_directories(dir);
+  std::vector<std::size_t> order;
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    if (std::isfinite(r.before.run_rms[i])) order.push_back(i);
+  }
+  std::sort(order.begin(), order.end(),
+            [&](std::size_t a, std::size_t b) { return r.before.run_rms[a] > r.before.run_rms[b]; });
+  if (order.size() > 3) order.resize(3);
+  const auto before = simulate_diagnosed(runs, effects_before, ModelScales{}, sim, 0);
+  const auto after = simulate_diagnosed(runs, r.effects, r.scales, sim, 0);
+  std::ostringstream md;
+  md << "\n## Residual before and after\n\n";
+  int n = 0;
+  for (std::size_t i : order) {
+    const std::string id = "residual_run" + std::to_string(++n);
+    const RunData& d = *runs[i].data;
+    {
+      std::ofstream dat(dir / (id + ".dat"));
+      dat << "# t [s]  residual before  residual after [position unit]  (θ − θ_sim), run "
+          << runs[i].name << "\n";
+      for (std::size_t k = 0; k < d.size(); ++k) {
+        const double b = before[i].size() == d.size() ? d.theta[k] - before[i][k] : NAN;
+        const double a = after[i].size() == d.size() ? d.theta[k] - after[i][k] : NAN;
+        dat << d.t[k] << " " << b << " " << a << "\n";
+      }
+    }
+    const std::string caption = "θ − θ_sim of " + runs[i].name + " before and after the diagnosis";
+    {
+      std::ofstream gp(dir / (id + ".gp"));
+      gp << gnuplot_preamble(id, caption, 900, 420) << "set title " << gnuplot_quote(caption)
+         << "\nset xlabel 'time t [s]'\nset ylabel 'θ − θ_sim [position unit]'\n"
+         << "plot '" << id << ".dat' using 1:2 with lines lc rgb '#1f77b4' title 'before', \\\n"
+         << "     '' using 1:3 with lines lc rgb '#d62728' title 'after'\n";
+    }
+    const std::string why = draw_gnuplot_figure("gnuplot", dir, id);
+    if (!why.empty()) {
+      warning = "figures not drawn: " + why;
+      md << "- " << caption << ": not drawn (" << why << "); data and script in plots/" << id
+         << ".{dat,gp}\n";
+    } else {
+      md << "![" << id << "](plots/" << id << ".png)\n\n*" << caption << ".*\n\n";
+    }
+  }
+  return md.str();
+}
+
+std::string make_report(const std::string& dataset, const std::vector<DiagnoseRun>& runs,
+                        const DiagnoseResult& r, const std::string& model_source) {
+  std::ostringstream s;
+  s << "# omni_fit diagnose report\n\nDataset: `" << dataset << "` (" << runs.size()
+    << " runs; model: " << model_source << "). Candidates fitted and scored on "
+    << r.fit_runs.size() << " runs; wall time " << fmt(r.seconds, "%.1f") << " s.\n\n";
+  s << "## Where the model was wrong (before)\n\n";
+  for (const auto& f : r.before.findings) s << "- " << f << "\n";
+  s << "\n## Candidates\n\nEach candidate effect was fitted by output error together with the "
+       "α-model's coefficient factors and scored by 2-fold cross-validation (fitted on one half "
+       "of each run, RMS error on the other half). An effect is named only when its score is at "
+       "least 10 % below that of `none` in both folds.\n\n";
+  for (std::size_t round = 0; round < r.rounds.size(); ++round) {
+    const DiagnoseRound& rd = r.rounds[round];
+    s << "### Round " << round + 1 << ": " << effect_name(rd.named) << " (RMS error "
+      << fmt(rd.error_before) << " → " << fmt(rd.error_after) << ")\n\n"
+      << "| effect | score (CV RMS) | fold 1 | fold 2 | RMS after, all runs | parameters | note |\n"
+         "|---|---|---|---|---|---|---|\n";
+    for (const auto& c : rd.candidates) {
+      s << "| " << (c.effect == rd.named ? "**" + std::string(effect_name(c.effect)) + "**"
+                                         : std::string(effect_name(c.effect)))
+        << " | " << fmt(c.score) << " | " << fmt(c.fold_scores[0]) << " | "
+        << fmt(c.fold_scores[1]) << " | " << fmt(c.error_after) << " | "
+        << (c.ok ? parameters_text(c.effects, c.effect) : "–") << " | " << c.message << " |\n";
+    }
+    s << "\n";
+  }
+  s << "## The gap before and after\n\nRMS of θ − θ_sim over all runs: **" << fmt(r.error_before)
+    << " → " << fmt(r.error_after) << "**";
+  if (r.error_before > 0) s << " (" << fmt(100.0 * (1.0 - r.error_after / r.error_before), "%.1f") << " % less)";
+  s << ".\n\n| run | RMS before | RMS after | change |\n|---|---|---|---|\n";
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    const double b = r.before.run_rms[i], a = r.after.run_rms[i];
+    s << "| " << runs[i].name << " | " << fmt(b) << " | " << fmt(a) << " | "
+      << (b > 0 ? fmt(100.0 * (a / b - 1.0), "%+.1f") + " %" : "–") << " |\n";
+  }
+  s << "\n## Where the model is wrong now (after)\n\n";
+  for (const auto& f : r.after.findings) s << "- " << f << "\n";
+  return s.str();
+}
+
+}  // namespace
+
+CLI::App* add_diagnose_subcommand(CLI::App& app, DiagnoseCommandOptions& o) {
+  auto* c = app.add_subcommand(
+      "diagnose", "find where simulation and measurement disagree, name the missing effect, add it");
+  c->add_option("dataset", o.dataset_dir, "dataset folder (alphainv-dataset/1)")->required();
+  c->add_option("--model", o.model_path, "model.json to diagnose (default: fit the dataset first)");
+  c->add_option("-o,--out", o.out_dir, "output folder: report.md, model.json with the effect, plots/");
+  c->add_flag("--json", o.json, "print one JSON object to stdout");
+  c->add_flag("-q,--quiet", o.quiet, "print nothing but errors");
+  c->add_flag("--no-plots", o.no_plots, "no residual figures");
+  c->add_option("--max-effects", o.max_effects, "rounds: effects to name at most")
+      ->capture_default_str()->check(CLI::Range(1, 7));
+  c->add_option("--threads", o.threads, "threads (default: all cores)");
+  c->add_option("--fit-runs", o.max_fit_runs, "runs used to fit and score the candidates")
+      ->capture_default_str()->check(CLI::Range(2, 1000));
+  c->footer(
+      "Effects: coulomb_friction, offset_torque, gravity, cogging, time_delay, saturation, deadzone.\n"
+      "Examples:\n  omni_fit diagnose data/omni_yaw_sim -o out/diag --json\n"
+      "  omni_fit diagnose run_dir --model out/fit/model.json --max-effects 2 -o out/diag\n"
+      "Exit codes: 0 ok (also when it names none), 1 usage, 2 bad input (names the file), "
+      "3 nothing could be diagnosed.");
+  return c;
+}
+
+int run_diagnose(const DiagnoseCommandOptions& o) {
+  Dataset ds;
+  std::vector<RunData> data;
+  try {
+    ds = read_dataset_index(o.dataset_dir);
+    for (std::size_t i = 0; i < ds.runs.size(); ++i) data.push_back(read_run(ds, i));
+  } catch (const Error& e) {
+    std::fprintf(stderr, "omni_fit diagnose: %s\n", e.what());
+    return 2;
+  }
+  DiagnoseOptions dopt;
+  dopt.max_effects = o.max_effects;
+  dopt.threads = o.threads;
+  dopt.max_fit_runs = o.max_fit_runs;
+  ModelFile model;
+  std::vector<DiagnoseRun> runs;
+  std::string model_source;
+  DiagnoseResult res;
+  if (!o.model_path.empty()) {
+    try {
+      model = read_model_file(o.model_path);
+      for (std::size_t i = 0; i < ds.runs.size(); ++i) {
+        DiagnoseRun r;
+        r.data = &data[i];
+        r.controller = to_controller(ds.runs[i].controller);
+        r.model = model_at(model, ds.runs[i].gamma1_deg, ds.runs[i].gamma2_deg, model.has_alpha_model);
+        r.name = ds.runs[i].file;
+        r.kind = ds.runs[i].kind;
+        r.freq_hz = ds.runs[i].freq_hz;
+        runs.push_back(r);
+      }
+    } catch (const Error& e) {
+      std::fprintf(stderr, "omni_fit diagnose: %s\n", e.what());
+      return 2;
+    }
+    dopt.simulation.loop_period_s = model.loop_period_s;
+    model_source = "`" + o.model_path + "`";
+    res = diagnose(runs, dopt);
+  } else {
+    FitPipelineOptions fo;
+    fo.threads = o.threads;
+    DatasetFit fit;
+    res = diagnose_dataset(ds, data, dopt, fo, &fit);
+    dopt.simulation = fit.simulation;
+    runs = diagnose_runs(ds, data, fit);
+    try {
+      model = make_model_file(ds, fit);
+    } catch (const Error& e) {
+      std::fprintf(stderr, "omni_fit diagnose: %s\n", e.what());
+      return 2;
+    }
+    model_source = "fitted by omni_fit fit's pipeline";
+  }
+  if (!res.ok) {
+    std::fprintf(stderr, "omni_fit diagnose: nothing could be diagnosed in %s: %s\n",
+                 o.dataset_dir.c_str(), res.message.c_str());
+    return 3;
+  }
+  const Effects effects_before = runs.empty() ? Effects{} : runs.front().model.effects;
+  if (!o.out_dir.empty()) {
+    const fs::path out(o.out_dir);
+    try {
+      fs::create_directories(out);
+      ModelFile m = model;
+      apply_to_model(m, res);
+      write_model_file(out / "model.json", m);
+      std::string warning;
+      const std::string figs =
+          o.no_plots ? std::string()
+                     : residual_figures(out, runs, res, dopt.simulation, effects_before, warning);
+      if (!warning.empty() && !o.quiet) std::fprintf(stderr, "omni_fit diagnose: %s\n", warning.c_str());
+      write_text_atomic(out / "report.md", make_report(o.dataset_dir, runs, res, model_source) + figs);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "omni_fit diagnose: writing %s: %s\n", out.string().c_str(), e.what());
+      return 2;
+    }
+  }
+  const EffectKind first = res.effects_named.empty() ? EffectKind::kNone : res.effects_named.front();
+  if (o.json) {
+    nlohmann::json j;
+    j["effect"] = effect_name(first);
+    j["parameters"] = parameters_json(res.effects, first);
+    j["error_before"] = num(res.error_before);
+    j["error_after"] = num(res.error_after);
+    nlohmann::json cands = nlohmann::json::array();
+    for (const auto& c : res.rounds.front().candidates) {
+      cands.push_back({{"effect", effect_name(c.effect)}, {"score", num(c.score)},
+                       {"error_after", num(c.error_after)}});
+    }
+    j["candidates"] = cands;
+    nlohmann::json names = nlohmann::json::array();
+    for (EffectKind k : res.effects_named) names.push_back(effect_name(k));
+    j["effects"] = names;
+    std::printf("%s\n", j.dump().c_str());
+  } else if (!o.quiet) {
+    std::printf("omni_fit diagnose: %s; RMS of theta - theta_sim %s -> %s (%zu runs, %.1f s)\n",
+                effect_name(first), fmt(res.error_before).c_str(), fmt(res.error_after).c_str(),
+                runs.size(), res.seconds);
+    for (const auto& f : res.before.findings) std::printf("  before: %s\n", f.c_str());
+    if (first != EffectKind::kNone)
+      std::printf("  %s: %s\n", effect_name(first), parameters_text(res.effects, first).c_str());
+  }
+  return 0;
+}
+
+}  // namespace omni_fit

@@ -1,0 +1,83 @@
+#include "alphainv/diagnose.hpp"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "alphainv/experiment_plan.hpp"
+
+namespace alphainv {
+namespace {
+
+TEST(Diagnose, DiagnosedModelAppliesTheFactorsAndEffects) {
+  JointModelAtPose base = model_at_pose(paper_linear_model(), paper_alpha_model(),
+                                        deg_to_rad(60.08), deg_to_rad(87.0));
+  Effects e;
+  e.offset_v = 0.01;
+  ModelScales s;
+  s.c = {2.0, 1.0, 0.5, 1.0};
+  s.beta = {1.25, 0.8};
+  const JointModelAtPose m = diagnosed_model(base, e, s);
+  // C_n = 1/(C_n1·I) scaled by c[n] (eq. (40)); β̃ ends by beta[j] (eq. (42)).
+  for (std::size_t n = 0; n < 4; ++n) {
+    EXPECT_NEAR(m.alpha.damping(m.alpha.alpha[n], m.inertia),
+                s.c[n] * base.alpha.damping(base.alpha.alpha[n], base.inertia), 1e-12);
+  }
+  EXPECT_NEAR(m.alpha.beta_tilde(0.0, m.inertia), 1.25 * base.alpha.beta_tilde(0.0, base.inertia), 1e-9);
+  EXPECT_NEAR(m.c_linear, 2.0 * base.c_linear, 1e-12);
+  EXPECT_EQ(m.effects.offset_v, 0.01);
+  // Unit factors give the model back.
+  const JointModelAtPose same = diagnosed_model(base, Effects{}, ModelScales{});
+  EXPECT_EQ(same.alpha.c_n1, base.alpha.c_n1);
+}
+
+TEST(Diagnose, BadInputGivesAMessage) {
+  EXPECT_FALSE(diagnose({}).ok);
+  RunData d;
+  d.t = {0.0, 0.001};
+  d.r = d.theta = d.v = {0.0, 0.0};
+  DiagnoseRun r;
+  r.data = &d;
+  r.name = "short.csv";
+  const DiagnoseResult res = diagnose({r});
+  EXPECT_FALSE(res.ok);
+  EXPECT_NE(res.message.find("short.csv"), std::string::npos) << res.message;
+}
+
+/// The 10-run dataset of `omni_fit sweep`: the sine sweep and a square wave at one pose, with one
+/// hidden effect (or none).
+GeneratedDataset one_pose_dataset(const Effects& hidden, std::uint64_t seed) {
+  ExperimentPlanOptions plan = paper_plan_options(seed);
+  plan.plant.effects = hidden;
+  const auto poses = paper_sine_poses();
+  plan.sine_poses = {poses[seed % poses.size()]};
+  plan.square_poses = plan.sine_poses;
+  return generate_dataset(make_experiment_plan(plan));
+}
+
+TEST(DiagnoseSweep, NamesADeadzoneAndCutsTheGap) {
+  Effects hidden;
+  hidden.deadzone_v = 0.01;
+  const GeneratedDataset g = one_pose_dataset(hidden, 3);
+  DiagnoseOptions o;
+  const DiagnoseResult r = diagnose_dataset(g.index, g.runs, o);
+  ASSERT_TRUE(r.ok) << r.message;
+  ASSERT_EQ(r.effects_named.size(), 1u);
+  EXPECT_EQ(r.effects_named[0], EffectKind::kDeadzone);
+  EXPECT_LT(r.error_after, 0.7 * r.error_before);  // the gap shrinks by 30 % or more
+  EXPECT_NEAR(r.effects.deadzone_v, 0.01, 0.3 * 0.01);
+  EXPECT_EQ(r.rounds.front().candidates.size(), kAllEffectKinds.size());
+}
+
+TEST(DiagnoseSweep, SaysNoneOnEffectFreeData) {
+  const GeneratedDataset g = one_pose_dataset(Effects{}, 3);
+  const DiagnoseResult r = diagnose_dataset(g.index, g.runs, DiagnoseOptions{});
+  ASSERT_TRUE(r.ok) << r.message;
+  EXPECT_TRUE(r.effects_named.empty());
+  EXPECT_EQ(r.rounds.front().named, EffectKind::kNone);
+  EXPECT_DOUBLE_EQ(r.error_after, r.error_before);  // the model is left as it was
+  EXPECT_FALSE(r.before.findings.empty());
+}
+
+}  // namespace
+}  // namespace alphainv
