@@ -43,8 +43,8 @@ int fail(int code, const std::string& message) {
 }
 
 /// "3Hz", "0.25 Hz", "3" → Hz; "10s", "500ms", "10" → s. Throws CLI::ValidationError.
-double parse_with_unit(const std::string& text, const std::string& unit, double scale_small,
-                       const std::string& small_unit) {
+double parse_with_unit(const std::string& option, const std::string& text, const std::string& unit,
+                       double scale_small, const std::string& small_unit) {
   std::string s = text;
   while (!s.empty() && s.back() == ' ') s.pop_back();
   double factor = 1.0;
@@ -61,8 +61,8 @@ double parse_with_unit(const std::string& text, const std::string& unit, double 
   char* end = nullptr;
   const double x = std::strtod(s.c_str(), &end);
   if (s.empty() || end != s.c_str() + s.size() || !std::isfinite(x) || !(x > 0.0)) {
-    throw CLI::ValidationError("expected a positive number with an optional unit " + unit +
-                               ", got '" + text + "'");
+    throw CLI::ValidationError(option + ": expected a positive number with an optional unit " +
+                               unit + ", got '" + text + "'");
   }
   return x * factor;
 }
@@ -215,17 +215,17 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);
     if (!sine.empty()) {
       opt.wave_kind = "sine";
-      opt.freq_hz = parse_with_unit(sine, "Hz", 0.0, "");
+      opt.freq_hz = parse_with_unit("--sine", sine, "Hz", 0.0, "");
     } else if (!square.empty()) {
       opt.wave_kind = "square";
-      opt.freq_hz = parse_with_unit(square, "Hz", 0.0, "");
+      opt.freq_hz = parse_with_unit("--square", square, "Hz", 0.0, "");
     } else if (step) {
       opt.wave_kind = "step";
     } else if (hold) {
       opt.wave_kind = "hold";
     }
-    if (!duration.empty()) opt.duration_s = parse_with_unit(duration, "s", 1e-3, "ms");
-    if (opt.freq_hz > 100.0) throw CLI::ValidationError("frequency above 100 Hz");
+    if (!duration.empty()) opt.duration_s = parse_with_unit("--duration", duration, "s", 1e-3, "ms");
+    if (opt.freq_hz > 100.0) throw CLI::ValidationError("--sine/--square: expected a frequency up to 100 Hz");
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {

@@ -314,18 +314,19 @@ void LoopRunner::writer_main() {
 }
 
 void LoopRunner::finish_run(std::uint32_t run_id, const RecordItem& end_item) {
-  std::unique_ptr<Partial> p;
+  // The entry stays in partial_ until the dataset is written: run() waits for partial_ to empty.
+  Partial* p = nullptr;
   std::optional<RunRecording> recording;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    p = std::move(partial_[run_id]);
-    partial_.erase(run_id);
+    auto& slot = partial_[run_id];
+    if (!slot) slot = std::make_unique<Partial>();
+    p = slot.get();  // only this (writer) thread changes partial_
     if (auto it = recordings_.find(run_id); it != recordings_.end()) {
       recording = it->second;
       recordings_.erase(it);
     }
   }
-  if (!p) p = std::make_unique<Partial>();
   RunResult result;
   result.run_id = run_id;
   result.fault = end_item.record.fault;
@@ -410,6 +411,7 @@ void LoopRunner::finish_run(std::uint32_t run_id, const RecordItem& end_item) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     results_[run_id] = result;
+    partial_.erase(run_id);
   }
   done_cv_.notify_all();
   if (options_.on_run_done) options_.on_run_done(result);
