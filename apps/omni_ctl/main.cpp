@@ -18,15 +18,18 @@
 #include "alphainv/error.hpp"
 #include "options.hpp"
 
+/// Set by SIGINT/SIGTERM (and by the daemon when it ends); the loop and the server watch it.
+std::atomic<bool> g_omni_ctl_stop{false};
+static_assert(std::atomic<bool>::is_always_lock_free, "the signal handler needs a lock-free flag");
+
 namespace {
 
 using namespace alphainv;
 using namespace omni_ctl;
 
-std::atomic<bool> g_stop{false};
-static_assert(std::atomic<bool>::is_always_lock_free, "the signal handler needs a lock-free flag");
+std::atomic<bool>& g_stop = g_omni_ctl_stop;
 
-extern "C" void on_signal(int) { g_stop.store(true); }
+extern "C" void on_signal(int) { g_omni_ctl_stop.store(true); }
 
 void install_signal_handlers() {
   struct sigaction sa {};

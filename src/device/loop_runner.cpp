@@ -178,6 +178,8 @@ LoopOutcome LoopRunner::run(const std::atomic<bool>& stop) {
     rd.add(rec.read_s);
     wr.add(rec.write_s);
     ++ticks;
+    ticks_.store(ticks, std::memory_order_relaxed);
+    misses_.store(misses, std::memory_order_relaxed);
     (void)stream_.push(rec);
     if (run_active) {
       RecordItem item;

@@ -133,6 +133,10 @@ class LoopRunner {
   /// The loop's gain now (as of the last tick). Any thread.
   double kp() const noexcept { return kp_.load(std::memory_order_relaxed); }
   bool running_waveform() const noexcept { return run_active_.load(std::memory_order_relaxed); }
+  /// Ticks so far (updated every tick). Any thread.
+  long ticks() const noexcept { return ticks_.load(std::memory_order_relaxed); }
+  /// Deadline misses so far (updated every tick). Any thread.
+  long deadline_misses() const noexcept { return misses_.load(std::memory_order_relaxed); }
   const rt::ControlLoopConfig& config() const noexcept { return loop_.config(); }
 
  private:
@@ -153,6 +157,7 @@ class LoopRunner {
   rt::SpscRing<rt::TickRecord> stream_;
   std::atomic<double> kp_{0.0};
   std::atomic<bool> run_active_{false};
+  std::atomic<long> ticks_{0}, misses_{0};
 
   // Writer thread state.
   std::thread writer_;
