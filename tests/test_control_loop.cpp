@@ -1,8 +1,6 @@
 // The 1 kHz tick against the virtual Omni as ground truth: α, C, β̃ equal the plant's own, the
 // one-step prediction matches the plant, the clamp and slew limit hold, every fault zeroes and
 // disables the motor in the tick that detects it, and the tick allocates nothing.
-#include "alphainv/rt/control_loop.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -12,6 +10,7 @@
 #include "../tests/support/counting_allocator.hpp"
 #include "alphainv/device/sim_transport.hpp"
 #include "alphainv/error.hpp"
+#include "alphainv/rt/control_loop.hpp"
 #include "alphainv/rt/latency_histogram.hpp"
 #include "alphainv/rt/spsc_ring.hpp"
 
@@ -116,7 +115,8 @@ TEST(ControlLoop, ModelQuantitiesEqualThePlantsAndThePredictionMatchesIt) {
     EXPECT_NEAR(rec.damping, plant.damping(), 1e-7 * plant.damping());  // I from measured γ
     EXPECT_NEAR(rec.beta_tilde, plant.beta_tilde(), 1e-7 * plant.beta_tilde());
     EXPECT_NEAR(rec.r_rad, 0.07 * std::sin(2 * kPi * 3.0 * (k - 1) * T), 1e-12);
-    if (k > 3) max_pred_error = std::max(max_pred_error, std::abs(rec.theta_pred_rad - rec.theta_rad));
+    if (k > 3)
+      max_pred_error = std::max(max_pred_error, std::abs(rec.theta_pred_rad - rec.theta_rad));
   }
   EXPECT_GT(std::abs(plant.theta()), 0.01);  // it moved
   EXPECT_LT(max_pred_error, 1e-7);
@@ -129,7 +129,8 @@ TEST(ControlLoop, ModelQuantitiesEqualThePlantsAndThePredictionMatchesIt) {
   const Trace tr = run(wrong_loop, t2, sine(0.07, 3.0), 2000);
   double wrong_error = 0.0;
   for (std::size_t k = 4; k < tr.records.size(); ++k) {
-    wrong_error = std::max(wrong_error, std::abs(tr.records[k].theta_pred_rad - tr.records[k].theta_rad));
+    wrong_error =
+        std::max(wrong_error, std::abs(tr.records[k].theta_pred_rad - tr.records[k].theta_rad));
   }
   EXPECT_GT(wrong_error, 1e-5);
 }
@@ -185,10 +186,8 @@ void expect_safe_after(const Trace& tr, int kf) {
 
 TEST(ControlLoop, DeviceFaultsZeroAndDisableInTheDetectingTick) {
   const FaultCase cases[] = {
-      {"disconnect@0.3", Fault::kDisconnected, 1},
-      {"stall@0.3", Fault::kReadStall, 20 + 1},
-      {"corrupt@0.3", Fault::kCorruptReport, 1},
-      {"sequence@0.3", Fault::kOutOfSequence, 1},
+      {"disconnect@0.3", Fault::kDisconnected, 1},  {"stall@0.3", Fault::kReadStall, 20 + 1},
+      {"corrupt@0.3", Fault::kCorruptReport, 1},    {"sequence@0.3", Fault::kOutOfSequence, 1},
       {"encoder-jump@0.3", Fault::kEncoderJump, 1},
   };
   for (const FaultCase& fc : cases) {

@@ -1,11 +1,11 @@
 // HID report codec: CRC check value, round trips, every corruption detected, scaling saturation.
-#include "alphainv/device/hid_report.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstring>
 #include <limits>
+
+#include "alphainv/device/hid_report.hpp"
 
 using namespace alphainv::device;
 

@@ -1,12 +1,11 @@
 // HidTransport against the hidapi test double (tests/hid_double, linked in place of libhidapi):
 // the real hid_* call sequence, report encoding on the wire, and the error paths.
-#include "alphainv/device/hid_transport.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdlib>
 
+#include "alphainv/device/hid_transport.hpp"
 #include "alphainv/error.hpp"
 #include "alphainv/inertia_model.hpp"
 #include "alphainv/virtual_omni.hpp"

@@ -1,9 +1,9 @@
 // LatencyHistogram percentiles against a known distribution.
-#include "alphainv/rt/latency_histogram.hpp"
-
 #include <gtest/gtest.h>
 
 #include <memory>
+
+#include "alphainv/rt/latency_histogram.hpp"
 
 using alphainv::rt::LatencyHistogram;
 
@@ -26,8 +26,8 @@ TEST(LatencyHistogram, OverflowAndNegativeValues) {
   h->add(0.05);
   h->add(0.03);
   const auto s = h->summary();
-  EXPECT_EQ(s.p50_s, 1e-6);     // the first bin's upper edge
-  EXPECT_EQ(s.p999_s, 0.05);    // in the overflow: the max
+  EXPECT_EQ(s.p50_s, 1e-6);   // the first bin's upper edge
+  EXPECT_EQ(s.p999_s, 0.05);  // in the overflow: the max
   EXPECT_EQ(s.max_s, 0.05);
   h->clear();
   EXPECT_EQ(h->summary().count, 0);

@@ -1,7 +1,5 @@
 // LoopRunner on the virtual device: a recorded run reads back with the dataset reader, carries
 // the timing statistics, and stays complete when a fault or a stop request ends it.
-#include "alphainv/device/loop_runner.hpp"
-
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -12,6 +10,7 @@
 #include <thread>
 
 #include "alphainv/dataset.hpp"
+#include "alphainv/device/loop_runner.hpp"
 #include "alphainv/device/sim_transport.hpp"
 
 using namespace alphainv;

@@ -51,16 +51,16 @@ std::vector<Written> read_log(const fs::path& path) {
 }
 
 std::vector<std::string> base_args(const char* bin, const fs::path& record) {
-  return {bin, "--joint", "yaw", "--local", "--rt-priority", "0", "--no-mlock",
-          "--record", record.string()};
+  return {bin, "--joint",    "yaw",      "--local",      "--rt-priority",
+          "0", "--no-mlock", "--record", record.string()};
 }
 
 struct HidFaultCase {
   const char* name;
   const char* double_fault;  // ALPHAINV_HID_DOUBLE_FAULT, "" for none
   std::vector<std::string> extra_args;
-  const char* message;        // expected in stderr
-  const char* dataset_ended;  // expected in dataset.json
+  const char* message;          // expected in stderr
+  const char* dataset_ended;    // expected in dataset.json
   int max_enabled_after_onset;  // enabled reports delivered after the device's fault onset
 };
 
@@ -87,7 +87,8 @@ TEST(OmniCtl, HidRunThroughTheDoubleEndsDisabled) {
   for (const char* a : {"--square", "2Hz", "--duration", "0.6s", "--device", "hid:1209:0001"}) {
     args.push_back(a);
   }
-  const ProcessResult r = run_process(args, {{"ALPHAINV_HID_DOUBLE_LOG", (dir / "log.csv").string()}});
+  const ProcessResult r =
+      run_process(args, {{"ALPHAINV_HID_DOUBLE_LOG", (dir / "log.csv").string()}});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto log = read_log(dir / "log.csv");
   ASSERT_GT(log.size(), 550u);
@@ -106,23 +107,54 @@ TEST(OmniCtl, HidRunThroughTheDoubleEndsDisabled) {
 
 TEST(OmniCtl, HidFaultsStopTheMotorAndKeepTheRecording) {
   const HidFaultCase cases[] = {
-      {"disconnect", "disconnect@0.4", {}, "FAULT: device disconnected", "fault: device disconnected", 0},
-      {"stall", "stall@0.4", {}, "FAULT: input reports stalled", "fault: input reports stalled", 20 + 2},
-      {"corrupt", "corrupt@0.4", {}, "FAULT: corrupt input report", "fault: corrupt input report", 2},
-      {"sequence", "sequence@0.4", {}, "FAULT: input report out of sequence", "fault: input report out of sequence", 2},
+      {"disconnect",
+       "disconnect@0.4",
+       {},
+       "FAULT: device disconnected",
+       "fault: device disconnected",
+       0},
+      {"stall",
+       "stall@0.4",
+       {},
+       "FAULT: input reports stalled",
+       "fault: input reports stalled",
+       20 + 2},
+      {"corrupt",
+       "corrupt@0.4",
+       {},
+       "FAULT: corrupt input report",
+       "fault: corrupt input report",
+       2},
+      {"sequence",
+       "sequence@0.4",
+       {},
+       "FAULT: input report out of sequence",
+       "fault: input report out of sequence",
+       2},
       {"encoder-jump", "encoder-jump@0.4", {}, "FAULT: encoder jump", "fault: encoder jump", 2},
-      {"deadline", "slow@0.4", {}, "FAULT: too many deadlines missed", "fault: too many deadlines", 10 + 2},
-      {"angle-limit", "", {"--theta-limit", "0.05"}, "FAULT: angle limit exceeded", "fault: angle limit", 0},
+      {"deadline",
+       "slow@0.4",
+       {},
+       "FAULT: too many deadlines missed",
+       "fault: too many deadlines",
+       10 + 2},
+      {"angle-limit",
+       "",
+       {"--theta-limit", "0.05"},
+       "FAULT: angle limit exceeded",
+       "fault: angle limit",
+       0},
   };
   for (const HidFaultCase& fc : cases) {
     SCOPED_TRACE(fc.name);
     const fs::path dir = temp_dir(fc.name);
     auto args = base_args(OMNI_CTL_HID_DOUBLE_BIN, dir / "rec");
-    for (const char* a : {"--sine", "3Hz", "--duration", "2s", "--device", "hid"}) args.push_back(a);
+    for (const char* a : {"--sine", "3Hz", "--duration", "2s", "--device", "hid"})
+      args.push_back(a);
     for (const auto& a : fc.extra_args) args.push_back(a);
-    const ProcessResult r = run_process(
-        args, {{"ALPHAINV_HID_DOUBLE_FAULT", fc.double_fault},
-               {"ALPHAINV_HID_DOUBLE_LOG", (dir / "log.csv").string()}});
+    const ProcessResult r =
+        run_process(args, {{"ALPHAINV_HID_DOUBLE_FAULT", fc.double_fault},
+                           {"ALPHAINV_HID_DOUBLE_LOG", (dir / "log.csv").string()}});
     EXPECT_EQ(r.exit_code, 3) << r.err;
     EXPECT_NE(r.err.find(fc.message), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("zeroed"), std::string::npos) << r.err;
@@ -201,8 +233,12 @@ TEST(OmniCtl, BadInputIsRejectedWithTheFieldNamed) {
       {{}, 1, "give a waveform"},
       {{"--sine", "3Hz", "--device", "usb"}, 2, "'--device'"},
       {{"--sine", "3Hz", "--device", "sim", "--sim-fault", "melt@1"}, 2, "'--sim-fault'"},
-      {{"--sine", "3Hz", "--device", "sim", "--model", (dir / "missing.json").string()}, 2, "missing.json"},
-      {{"--sine", "3Hz", "--device", "sim", "--model", (dir / "broken.json").string()}, 2, "broken.json"},
+      {{"--sine", "3Hz", "--device", "sim", "--model", (dir / "missing.json").string()},
+       2,
+       "missing.json"},
+      {{"--sine", "3Hz", "--device", "sim", "--model", (dir / "broken.json").string()},
+       2,
+       "broken.json"},
   };
   for (const Case& c : cases) {
     std::vector<std::string> args = {bin, "--local"};
@@ -212,8 +248,9 @@ TEST(OmniCtl, BadInputIsRejectedWithTheFieldNamed) {
     EXPECT_NE(r.err.find(c.message), std::string::npos) << r.err;
   }
   // No device: exit 4, hidapi's reason in the message.
-  const ProcessResult r = run_process({OMNI_CTL_HID_DOUBLE_BIN, "--local", "--sine", "3Hz", "--device", "hid"},
-                                      {{"ALPHAINV_HID_DOUBLE_ABSENT", "1"}});
+  const ProcessResult r =
+      run_process({OMNI_CTL_HID_DOUBLE_BIN, "--local", "--sine", "3Hz", "--device", "hid"},
+                  {{"ALPHAINV_HID_DOUBLE_ABSENT", "1"}});
   EXPECT_EQ(r.exit_code, 4) << r.err;
   EXPECT_NE(r.err.find("cannot open the HID device"), std::string::npos) << r.err;
   fs::remove_all(dir);

@@ -11,9 +11,8 @@
 #include <chrono>
 #include <cstring>
 #include <filesystem>
-#include <thread>
-
 #include <nlohmann/json.hpp>
+#include <thread>
 
 #include "alphainv/dataset.hpp"
 #include "support/subprocess.hpp"
@@ -28,8 +27,8 @@ namespace fs = std::filesystem;
 namespace {
 
 fs::path temp_dir(const std::string& name) {
-  const fs::path p = fs::temp_directory_path() /
-                     ("alphainv_test_daemon_" + std::to_string(getpid()) + "_" + name);
+  const fs::path p =
+      fs::temp_directory_path() / ("alphainv_test_daemon_" + std::to_string(getpid()) + "_" + name);
   fs::remove_all(p);
   fs::create_directories(p);
   return p;
@@ -48,7 +47,8 @@ class Client {
   ~Client() { close(fd_); }
   bool connected() const { return connected_; }
   void send_raw(const std::string& bytes) {
-    ASSERT_EQ(send(fd_, bytes.data(), bytes.size(), MSG_NOSIGNAL), static_cast<ssize_t>(bytes.size()));
+    ASSERT_EQ(send(fd_, bytes.data(), bytes.size(), MSG_NOSIGNAL),
+              static_cast<ssize_t>(bytes.size()));
   }
   /// The next line as JSON; null on timeout or when the daemon closed the connection.
   json next(double timeout_s = 5.0) {
@@ -98,8 +98,8 @@ struct Daemon {
   Daemon(const std::string& name, std::vector<std::string> extra = {}) {
     dir = temp_dir(name);
     socket = (dir / "run" / "omni_ctl.sock").string();
-    std::vector<std::string> args = {OMNI_CTL_BIN, "--daemon", "--device", "sim", "--socket",
-                                     socket, "--no-mlock"};
+    std::vector<std::string> args = {OMNI_CTL_BIN, "--daemon", "--device",  "sim",
+                                     "--socket",   socket,     "--no-mlock"};
     args.insert(args.end(), extra.begin(), extra.end());
     process = std::make_unique<Subprocess>(args);
     for (int i = 0; i < 400 && !fs::exists(socket); ++i) {
@@ -170,7 +170,8 @@ TEST(OmniCtlDaemon, ServesCommandsRejectsBadMessagesAndKeepsTheLoopRunning) {
   // A recorded run with a 100 Hz state stream.
   const fs::path rec = d.dir / "rec";
   const json run = c.request(R"({"cmd":"run","waveform":"sine","freq_hz":3,"amplitude_rad":0.05,)"
-                             R"("duration_s":0.5,"record":")" + rec.string() + R"("})");
+                             R"("duration_s":0.5,"record":")" +
+                             rec.string() + R"("})");
   ASSERT_TRUE(run.value("ok", false)) << run;
   EXPECT_FALSE(c.request(R"({"cmd":"run","waveform":"hold"})").value("ok", true));  // busy
   ASSERT_TRUE(c.request(R"({"cmd":"stream","rate_hz":100})").value("ok", false));
@@ -200,7 +201,8 @@ TEST(OmniCtlDaemon, ServesCommandsRejectsBadMessagesAndKeepsTheLoopRunning) {
   EXPECT_EQ(static_cast<long>(read_run(ds, 0).size()), done["rows"].get<long>());
 
   // Stop a run that would last a minute.
-  ASSERT_TRUE(c.request(R"({"cmd":"run","waveform":"square","freq_hz":1,"duration_s":60})").value("ok", false));
+  ASSERT_TRUE(c.request(R"({"cmd":"run","waveform":"square","freq_hz":1,"duration_s":60})")
+                  .value("ok", false));
   std::this_thread::sleep_for(std::chrono::milliseconds(100));
   ASSERT_TRUE(c.request(R"({"cmd":"stop"})").value("ok", false));
   bool stopped = false;
@@ -246,7 +248,8 @@ TEST(OmniCtlDaemon, AFaultStopsTheDaemonAndTellsTheClient) {
   ASSERT_TRUE(c.connected());
   const fs::path rec = d.dir / "rec";
   ASSERT_TRUE(c.request(R"({"cmd":"run","waveform":"sine","freq_hz":2,"duration_s":30,"record":")" +
-                        rec.string() + R"("})").value("ok", false));
+                        rec.string() + R"("})")
+                  .value("ok", false));
   json done, exit_event;
   for (json ev = c.next(); !ev.is_null(); ev = c.next()) {
     if (ev["event"] == "run_done") done = ev;

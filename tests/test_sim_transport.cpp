@@ -1,9 +1,8 @@
 // The virtual device: one plant tick per output report, the reports it queues, and each injected
 // fault's effect on the wire.
-#include "alphainv/device/sim_transport.hpp"
-
 #include <gtest/gtest.h>
 
+#include "alphainv/device/sim_transport.hpp"
 #include "alphainv/error.hpp"
 
 using namespace alphainv;

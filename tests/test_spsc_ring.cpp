@@ -1,12 +1,11 @@
 // SpscRing: FIFO order, full/empty, capacity rounding, and a two-thread run that checks every
 // value arrives once and in order.
-#include "alphainv/rt/spsc_ring.hpp"
-
 #include <gtest/gtest.h>
 
 #include <thread>
 
 #include "alphainv/error.hpp"
+#include "alphainv/rt/spsc_ring.hpp"
 
 using alphainv::rt::SpscRing;
 

@@ -5,6 +5,8 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <poll.h>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/un.h>
@@ -18,13 +20,10 @@
 #include <filesystem>
 #include <map>
 #include <mutex>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <thread>
 #include <vector>
-
-#include <nlohmann/json.hpp>
-#include <spdlog/sinks/stdout_color_sinks.h>
-#include <spdlog/spdlog.h>
 
 #include "alphainv/device/loop_runner.hpp"
 #include "alphainv/error.hpp"
@@ -45,8 +44,8 @@ constexpr int kMaxClients = 16;
 
 struct Client {
   int fd = -1;
-  std::string in;            // bytes received, not yet a whole line
-  double stream_hz = 0.0;    // 0: no state stream
+  std::string in;          // bytes received, not yet a whole line
+  double stream_hz = 0.0;  // 0: no state stream
   Clock::time_point next_state{};
   bool close_after_write = false;
 };
@@ -67,8 +66,8 @@ double number_field(const json& msg, const char* key, double fallback, double lo
   if (!v.is_number()) throw Error("expected a number, got " + v.dump(), {}, 0, key);
   const double x = v.get<double>();
   if (!std::isfinite(x) || x < lo || x > hi) {
-    throw Error("expected " + std::to_string(lo) + " <= value <= " + std::to_string(hi) +
-                    ", got " + v.dump(),
+    throw Error("expected " + std::to_string(lo) + " <= value <= " + std::to_string(hi) + ", got " +
+                    v.dump(),
                 {}, 0, key);
   }
   return x;
@@ -117,10 +116,16 @@ int listen_on(const std::string& path) {
 }
 
 json state_json(const rt::TickRecord& r) {
-  return {{"event", "state"},        {"t_s", r.t_s},           {"r_rad", r.r_rad},
-          {"theta_rad", r.theta_rad}, {"command_v", r.command_v}, {"alpha", r.alpha},
-          {"C", r.damping},           {"beta_tilde", r.beta_tilde},
-          {"theta_pred_rad", r.theta_pred_rad}, {"enable", r.enable}};
+  return {{"event", "state"},
+          {"t_s", r.t_s},
+          {"r_rad", r.r_rad},
+          {"theta_rad", r.theta_rad},
+          {"command_v", r.command_v},
+          {"alpha", r.alpha},
+          {"C", r.damping},
+          {"beta_tilde", r.beta_tilde},
+          {"theta_pred_rad", r.theta_pred_rad},
+          {"enable", r.enable}};
 }
 
 json timing_json(const device::TimingStats& t) { return json::parse(t.to_json()); }
@@ -197,7 +202,8 @@ class Server {
         continue;
       }
       if (clients_.size() >= static_cast<std::size_t>(kMaxClients)) {
-        (void)send_line(c, error_reply("too many clients (limit " + std::to_string(kMaxClients) + ")"));
+        (void)send_line(
+            c, error_reply("too many clients (limit " + std::to_string(kMaxClients) + ")"));
         close(fd);
         continue;
       }
@@ -295,7 +301,8 @@ class Server {
       } else if (cmd == "run") {
         start_run(c, msg);
       } else {
-        reply(c, error_reply("unknown cmd '" + cmd + "' (known: run, gains, stream, stop, status)"));
+        reply(c,
+              error_reply("unknown cmd '" + cmd + "' (known: run, gains, stream, stop, status)"));
       }
     } catch (const Error& e) {
       reply(c, error_reply(e.what()));
@@ -316,7 +323,8 @@ class Server {
                   "waveform");
     }
     const bool periodic = o.wave_kind == "sine" || o.wave_kind == "square";
-    if (periodic && !msg.contains("freq_hz")) throw Error("missing for " + o.wave_kind, {}, 0, "freq_hz");
+    if (periodic && !msg.contains("freq_hz"))
+      throw Error("missing for " + o.wave_kind, {}, 0, "freq_hz");
     o.freq_hz = number_field(msg, "freq_hz", 0.0, periodic ? 1e-3 : 0.0, 100.0);
     o.amplitude_rad = number_field(msg, "amplitude_rad", 0.07, 0.0, 1.0);
     o.duration_s = number_field(msg, "duration_s", 10.0, 1e-3, 86400.0);
@@ -345,7 +353,8 @@ class Server {
       rec.model_source = model_source_;
       runner_.add_recording(id, rec);
     }
-    if (!runner_.post(make_run_command(o, id))) throw Error("the loop's command queue is full; retry");
+    if (!runner_.post(make_run_command(o, id)))
+      throw Error("the loop's command queue is full; retry");
     owner_[id] = c.fd;
     spdlog::info("run {}: {} {} Hz, {} rad, {} s{}", id, o.wave_kind, o.freq_hz, o.amplitude_rad,
                  o.duration_s, o.record_dir.empty() ? "" : ", recording to " + o.record_dir);
@@ -359,17 +368,19 @@ class Server {
       done.swap(done_);
     }
     for (const device::RunResult& r : done) {
-      json ev = {{"event", "run_done"},
-                 {"run_id", r.run_id},
-                 {"fault", r.fault == rt::Fault::kNone ? json(nullptr) : json(rt::to_string(r.fault))},
-                 {"stopped", r.stopped},
-                 {"rows", r.rows},
-                 {"dropped_rows", r.dropped_rows},
-                 {"timing", timing_json(r.timing)}};
+      json ev = {
+          {"event", "run_done"},
+          {"run_id", r.run_id},
+          {"fault", r.fault == rt::Fault::kNone ? json(nullptr) : json(rt::to_string(r.fault))},
+          {"stopped", r.stopped},
+          {"rows", r.rows},
+          {"dropped_rows", r.dropped_rows},
+          {"timing", timing_json(r.timing)}};
       if (!r.dir.empty()) ev["record"] = r.dir.string();
       if (!r.recording_error.empty()) ev["recording_error"] = r.recording_error;
-      spdlog::info("run {} done: {} rows{}", r.run_id, r.rows,
-                   r.fault == rt::Fault::kNone ? "" : std::string(", fault: ") + rt::to_string(r.fault));
+      spdlog::info(
+          "run {} done: {} rows{}", r.run_id, r.rows,
+          r.fault == rt::Fault::kNone ? "" : std::string(", fault: ") + rt::to_string(r.fault));
       const auto it = owner_.find(r.run_id);
       if (it != owner_.end()) {
         if (Client* c = find(it->second)) reply(*c, ev);
@@ -491,10 +502,11 @@ int run_daemon(const Options& opt) {
   json end = {{"event", "daemon_exit"}, {"timing", timing_json(outcome.timing)}};
   if (outcome.fault != rt::Fault::kNone) {
     end["fault"] = rt::to_string(outcome.fault);
-    spdlog::critical("FAULT: {} at t = {:.3f} s; the motor command was zeroed and the motor "
-                     "disabled{}",
-                     rt::to_string(outcome.fault), outcome.fault_t_s,
-                     outcome.fault_detail.empty() ? "" : " (" + outcome.fault_detail + ")");
+    spdlog::critical(
+        "FAULT: {} at t = {:.3f} s; the motor command was zeroed and the motor "
+        "disabled{}",
+        rt::to_string(outcome.fault), outcome.fault_t_s,
+        outcome.fault_detail.empty() ? "" : " (" + outcome.fault_detail + ")");
     code = kExitFault;
   } else {
     spdlog::info("stopped by signal; motor zeroed and disabled");

@@ -4,10 +4,10 @@
 //            [--device hid[:VID:PID|:PATH] | sim] [--max-command 1.0] [--sim-fault KIND@S]
 //   omni_ctl --daemon [--device ...]   the foreground service on a Unix socket
 // With a waveform it talks to a running daemon when there is one, else runs the loop itself.
-#include <CLI/CLI.hpp>
 #include <signal.h>
 #include <unistd.h>
 
+#include <CLI/CLI.hpp>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
@@ -116,7 +116,8 @@ int run_local(const Options& opt) {
   (void)runner->post(make_run_command(opt, 1));
 
   const device::RealtimeSetup rt_setup = device::request_realtime(opt.rt_priority, !opt.no_mlock);
-  for (const auto& w : rt_setup.warnings) std::fprintf(stderr, "omni_ctl: warning: %s\n", w.c_str());
+  for (const auto& w : rt_setup.warnings)
+    std::fprintf(stderr, "omni_ctl: warning: %s\n", w.c_str());
   std::fprintf(stderr, "omni_ctl: %s on %s, kp %g, %s%s\n", opt.wave_kind.c_str(),
                transport->describe().c_str(), opt.kp,
                rt_setup.fifo ? "SCHED_FIFO" : "normal scheduler",
@@ -130,8 +131,8 @@ int run_local(const Options& opt) {
   std::fprintf(stderr, "omni_ctl: timing: %s\n", outcome.timing.to_text().c_str());
   int code = kExitOk;
   if (outcome.fault != rt::Fault::kNone) {
-    std::string msg = std::string("FAULT: ") + rt::to_string(outcome.fault) + " at t = " +
-                      std::to_string(outcome.fault_t_s) +
+    std::string msg = std::string("FAULT: ") + rt::to_string(outcome.fault) +
+                      " at t = " + std::to_string(outcome.fault_t_s) +
                       " s; the motor command was zeroed and the motor disabled";
     if (!outcome.fault_detail.empty()) msg += " (" + outcome.fault_detail + ")";
     fail(kExitFault, msg);
@@ -172,7 +173,9 @@ int main(int argc, char** argv) {
   app.add_option("--amplitude", opt.amplitude_rad, "reference amplitude [rad]")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1.0));
-  app.add_option("--kp", opt.kp, "P gain [V/rad]")->capture_default_str()->check(CLI::Range(0.0, 10.0));
+  app.add_option("--kp", opt.kp, "P gain [V/rad]")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 10.0));
   app.add_option("--duration", duration, "run length, e.g. 10s or 500ms (default 10s)");
   app.add_option("--record", opt.record_dir, "write the run as a dataset (alphainv-dataset/1)");
   app.add_option("--model", opt.model_path, "model.json (omni_fit); default: the paper's model");
@@ -204,7 +207,8 @@ int main(int argc, char** argv) {
   app.add_flag("--no-mlock", opt.no_mlock, "do not mlockall");
   app.add_flag("--daemon", opt.daemon, "run as the foreground service on a Unix socket");
   app.add_flag("--local", opt.local, "run the loop here even when a daemon is running");
-  app.add_option("--socket", opt.socket_path, "daemon socket (default: " + default_socket_path() + ")");
+  app.add_option("--socket", opt.socket_path,
+                 "daemon socket (default: " + default_socket_path() + ")");
   app.add_option("--stream", opt.stream_hz, "with a daemon: print the state at this rate [Hz]")
       ->check(CLI::Range(0.0, 1000.0));
   o_sine->excludes(o_square)->excludes(o_step)->excludes(o_hold);
@@ -227,15 +231,18 @@ int main(int argc, char** argv) {
     } else if (hold) {
       opt.wave_kind = "hold";
     }
-    if (!duration.empty()) opt.duration_s = parse_with_unit("--duration", duration, "s", 1e-3, "ms");
-    if (opt.freq_hz > 100.0) throw CLI::ValidationError("--sine/--square: expected a frequency up to 100 Hz");
+    if (!duration.empty())
+      opt.duration_s = parse_with_unit("--duration", duration, "s", 1e-3, "ms");
+    if (opt.freq_hz > 100.0)
+      throw CLI::ValidationError("--sine/--square: expected a frequency up to 100 Hz");
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
     std::fprintf(stderr, "omni_ctl: %s\nRun 'omni_ctl --help' for usage.\n", e.what());
     return kExitUsage;
   }
-  if (opt.joint != "yaw") return fail(kExitUsage, "--joint: only 'yaw' is supported, got '" + opt.joint + "'");
+  if (opt.joint != "yaw")
+    return fail(kExitUsage, "--joint: only 'yaw' is supported, got '" + opt.joint + "'");
   if (opt.socket_path.empty()) opt.socket_path = default_socket_path();
   install_signal_handlers();
 

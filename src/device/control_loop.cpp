@@ -22,28 +22,39 @@ void require(bool ok, const std::string& field, const std::string& expected, dou
 
 const char* to_string(Fault fault) noexcept {
   switch (fault) {
-    case Fault::kNone: return "no fault";
-    case Fault::kDisconnected: return "device disconnected (a read or write failed)";
-    case Fault::kReadStall: return "input reports stalled (no new report for too many periods)";
-    case Fault::kCorruptReport: return "corrupt input report (length, report id or checksum)";
-    case Fault::kOutOfSequence: return "input report out of sequence";
-    case Fault::kEncoderJump: return "encoder jump (theta changed too much in one tick)";
-    case Fault::kAngleLimit: return "angle limit exceeded";
-    case Fault::kDeadlineMisses: return "too many deadlines missed in a row";
+    case Fault::kNone:
+      return "no fault";
+    case Fault::kDisconnected:
+      return "device disconnected (a read or write failed)";
+    case Fault::kReadStall:
+      return "input reports stalled (no new report for too many periods)";
+    case Fault::kCorruptReport:
+      return "corrupt input report (length, report id or checksum)";
+    case Fault::kOutOfSequence:
+      return "input report out of sequence";
+    case Fault::kEncoderJump:
+      return "encoder jump (theta changed too much in one tick)";
+    case Fault::kAngleLimit:
+      return "angle limit exceeded";
+    case Fault::kDeadlineMisses:
+      return "too many deadlines missed in a row";
   }
   return "unknown fault";
 }
 
 double Waveform::at(double t_s) const noexcept {
   switch (kind) {
-    case WaveKind::kHold: return offset_rad;
-    case WaveKind::kSine: return offset_rad + amplitude_rad * std::sin(2.0 * kPi * freq_hz * t_s);
+    case WaveKind::kHold:
+      return offset_rad;
+    case WaveKind::kSine:
+      return offset_rad + amplitude_rad * std::sin(2.0 * kPi * freq_hz * t_s);
     case WaveKind::kSquare: {
       const double cycles = freq_hz * t_s;
       return cycles - std::floor(cycles) < 0.5 ? offset_rad + amplitude_rad
                                                : offset_rad - amplitude_rad;
     }
-    case WaveKind::kStep: return t_s >= 0.0 ? offset_rad + amplitude_rad : offset_rad;
+    case WaveKind::kStep:
+      return t_s >= 0.0 ? offset_rad + amplitude_rad : offset_rad;
   }
   return offset_rad;
 }
@@ -62,13 +73,13 @@ void ControlLoopConfig::validate() const {
           "a positive slew limit [V/s]", s.max_slew_v_per_s);
   require(std::isfinite(s.theta_limit_rad) && s.theta_limit_rad > 0.0, "theta_limit_rad",
           "a positive angle limit [rad]", s.theta_limit_rad);
-  require(std::isfinite(s.max_theta_step_rad) && s.max_theta_step_rad > 0.0,
-          "max_theta_step_rad", "a positive step [rad]", s.max_theta_step_rad);
+  require(std::isfinite(s.max_theta_step_rad) && s.max_theta_step_rad > 0.0, "max_theta_step_rad",
+          "a positive step [rad]", s.max_theta_step_rad);
   require(s.stall_periods >= 1, "stall_periods", "at least 1", s.stall_periods);
   require(s.max_missed_deadlines >= 1, "max_missed_deadlines", "at least 1",
           s.max_missed_deadlines);
-  require(s.max_sequence_gap >= 1 && s.max_sequence_gap < 32768, "max_sequence_gap",
-          "1 … 32767", s.max_sequence_gap);
+  require(s.max_sequence_gap >= 1 && s.max_sequence_gap < 32768, "max_sequence_gap", "1 … 32767",
+          s.max_sequence_gap);
   for (std::size_t j = 0; j < 3; ++j) {
     require(std::isfinite(scaling.counts_per_rad[j]) && scaling.counts_per_rad[j] > 0.0,
             "scaling.counts_per_rad[" + std::to_string(j) + "]", "a positive number",
@@ -117,12 +128,17 @@ void ControlLoop::supervise(const device::ReadResult& input, bool deadline_misse
   consecutive_misses_ = deadline_missed ? consecutive_misses_ + 1 : 0;
   if (consecutive_misses_ >= s.max_missed_deadlines) latch(Fault::kDeadlineMisses);
   switch (input.status) {
-    case device::IoStatus::kDisconnected: latch(Fault::kDisconnected); return;
-    case device::IoStatus::kCorrupt: latch(Fault::kCorruptReport); return;
+    case device::IoStatus::kDisconnected:
+      latch(Fault::kDisconnected);
+      return;
+    case device::IoStatus::kCorrupt:
+      latch(Fault::kCorruptReport);
+      return;
     case device::IoStatus::kNoData:
       if (++ticks_without_report_ >= s.stall_periods) latch(Fault::kReadStall);
       return;
-    case device::IoStatus::kOk: break;
+    case device::IoStatus::kOk:
+      break;
   }
   ticks_without_report_ = 0;
   const device::InputReport& in = input.report;

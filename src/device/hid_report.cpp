@@ -24,10 +24,14 @@ std::int32_t get_i32(const std::uint8_t* p) noexcept {
 
 const char* to_string(DecodeStatus status) noexcept {
   switch (status) {
-    case DecodeStatus::kOk: return "ok";
-    case DecodeStatus::kWrongLength: return "wrong length";
-    case DecodeStatus::kWrongReportId: return "wrong report id";
-    case DecodeStatus::kBadChecksum: return "bad checksum";
+    case DecodeStatus::kOk:
+      return "ok";
+    case DecodeStatus::kWrongLength:
+      return "wrong length";
+    case DecodeStatus::kWrongReportId:
+      return "wrong report id";
+    case DecodeStatus::kBadChecksum:
+      return "bad checksum";
   }
   return "unknown";
 }

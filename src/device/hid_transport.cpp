@@ -35,8 +35,7 @@ bool parse_hex16(const std::string& s, std::uint16_t& out) {
 HidDeviceSpec HidDeviceSpec::parse(const std::string& text, const std::string& field) {
   HidDeviceSpec spec;
   if (text.empty()) return spec;
-  const std::string expected =
-      "expected hid, hid:VID:PID (hex) or hid:PATH, got 'hid" + text + "'";
+  const std::string expected = "expected hid, hid:VID:PID (hex) or hid:PATH, got 'hid" + text + "'";
   if (text[0] != ':' || text.size() == 1) throw Error(expected, {}, 0, field);
   const std::string rest = text.substr(1);
   if (rest[0] == '/') {

@@ -9,9 +9,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
-#include <optional>
-
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "alphainv/error.hpp"
 
@@ -29,7 +28,8 @@ timespec add_ns(timespec t, long ns) noexcept {
   return t;
 }
 double diff_s(const timespec& a, const timespec& b) noexcept {  // a − b
-  return static_cast<double>(a.tv_sec - b.tv_sec) + 1e-9 * static_cast<double>(a.tv_nsec - b.tv_nsec);
+  return static_cast<double>(a.tv_sec - b.tv_sec) +
+         1e-9 * static_cast<double>(a.tv_nsec - b.tv_nsec);
 }
 timespec now_mono() noexcept {
   timespec t{};
@@ -38,7 +38,7 @@ timespec now_mono() noexcept {
 }
 
 nlohmann::json summary_json(const rt::LatencySummary& s) {
-  return {{"count", s.count},       {"p50_us", s.p50_s * 1e6}, {"p99_us", s.p99_s * 1e6},
+  return {{"count", s.count},          {"p50_us", s.p50_s * 1e6}, {"p99_us", s.p99_s * 1e6},
           {"p999_us", s.p999_s * 1e6}, {"max_us", s.max_s * 1e6}, {"mean_us", s.mean_s * 1e6}};
 }
 
@@ -214,8 +214,8 @@ LoopOutcome LoopRunner::run(const std::atomic<bool>& stop) {
             run_active = true;
             run_active_.store(true, std::memory_order_relaxed);
             run_id = pending.run_id;
-            run_end_s = pending.duration_s > 0.0 ? t_next + pending.duration_s - 0.5 * period_s
-                                                 : INFINITY;
+            run_end_s =
+                pending.duration_s > 0.0 ? t_next + pending.duration_s - 0.5 * period_s : INFINITY;
             dropped = 0;
             pending_valid = false;
           } else if (run_active) {
@@ -349,8 +349,8 @@ void LoopRunner::finish_run(std::uint32_t run_id, const RecordItem& end_item) {
       if (rows.size() < 2) throw Error("fewer than 2 ticks were recorded", recording->dir.string());
       RunData data;
       const std::size_t n = rows.size();
-      const char* extra_names[] = {"gamma1", "gamma2",     "alpha",        "C",
-                             "beta_tilde", "theta_pred", "torque_enable"};
+      const char* extra_names[] = {"gamma1",     "gamma2",     "alpha",        "C",
+                                   "beta_tilde", "theta_pred", "torque_enable"};
       for (const char* name : extra_names) data.extra_columns[name].reserve(n);
       data.t.reserve(n);
       const double t0 = rows.front().t_s;
@@ -398,8 +398,9 @@ void LoopRunner::finish_run(std::uint32_t run_id, const RecordItem& end_item) {
           {"dropped_rows", result.dropped_rows},
           {"max_slew_v_per_s", loop_.config().safety.max_slew_v_per_s},
           {"columns",
-           {{"theta_pred", "the model's prediction of this row's theta made one tick earlier "
-                           "(eq. (37) held over a tick); equal to theta when none was possible"},
+           {{"theta_pred",
+             "the model's prediction of this row's theta made one tick earlier "
+             "(eq. (37) held over a tick); equal to theta when none was possible"},
             {"alpha", "streaming alpha-hat of the command history, eq. (33) [V^2/s^2]"},
             {"C", "C(alpha, I) [1/s], eqs. (38)-(40)"},
             {"beta_tilde", "beta~(alpha, I) [rad/s^2/V], eqs. (41)-(42)"}}},

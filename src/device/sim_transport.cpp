@@ -12,23 +12,34 @@ namespace alphainv::device {
 
 const char* to_string(IoStatus status) noexcept {
   switch (status) {
-    case IoStatus::kOk: return "ok";
-    case IoStatus::kNoData: return "no data";
-    case IoStatus::kCorrupt: return "corrupt report";
-    case IoStatus::kDisconnected: return "disconnected";
+    case IoStatus::kOk:
+      return "ok";
+    case IoStatus::kNoData:
+      return "no data";
+    case IoStatus::kCorrupt:
+      return "corrupt report";
+    case IoStatus::kDisconnected:
+      return "disconnected";
   }
   return "unknown";
 }
 
 const char* to_string(SimFaultKind kind) noexcept {
   switch (kind) {
-    case SimFaultKind::kNone: return "none";
-    case SimFaultKind::kDisconnect: return "disconnect";
-    case SimFaultKind::kStall: return "stall";
-    case SimFaultKind::kCorrupt: return "corrupt";
-    case SimFaultKind::kOutOfSequence: return "sequence";
-    case SimFaultKind::kEncoderJump: return "encoder-jump";
-    case SimFaultKind::kSlow: return "slow";
+    case SimFaultKind::kNone:
+      return "none";
+    case SimFaultKind::kDisconnect:
+      return "disconnect";
+    case SimFaultKind::kStall:
+      return "stall";
+    case SimFaultKind::kCorrupt:
+      return "corrupt";
+    case SimFaultKind::kOutOfSequence:
+      return "sequence";
+    case SimFaultKind::kEncoderJump:
+      return "encoder-jump";
+    case SimFaultKind::kSlow:
+      return "slow";
   }
   return "unknown";
 }
@@ -37,14 +48,15 @@ SimFault parse_sim_fault(const std::string& text, const std::string& field) {
   const auto at = text.find('@');
   const std::string expected =
       "expected KIND@SECONDS with KIND one of disconnect, stall, corrupt, sequence, encoder-jump, "
-      "slow, got '" + text + "'";
+      "slow, got '" +
+      text + "'";
   if (at == std::string::npos) throw Error(expected, {}, 0, field);
   const std::string kind = text.substr(0, at);
   std::string secs = text.substr(at + 1);
   if (!secs.empty() && secs.back() == 's') secs.pop_back();
   SimFault f;
-  const SimFaultKind kinds[] = {SimFaultKind::kDisconnect, SimFaultKind::kStall,
-                                SimFaultKind::kCorrupt, SimFaultKind::kOutOfSequence,
+  const SimFaultKind kinds[] = {SimFaultKind::kDisconnect,  SimFaultKind::kStall,
+                                SimFaultKind::kCorrupt,     SimFaultKind::kOutOfSequence,
                                 SimFaultKind::kEncoderJump, SimFaultKind::kSlow};
   bool found = false;
   for (SimFaultKind k : kinds) {
@@ -141,7 +153,8 @@ ReadResult SimTransport::read_latest() noexcept {
     timespec ts{0, 3'000'000};
     nanosleep(&ts, nullptr);
   }
-  return drain_reports([this](std::uint8_t* buf, std::size_t len) { return device_.read(buf, len); });
+  return drain_reports(
+      [this](std::uint8_t* buf, std::size_t len) { return device_.read(buf, len); });
 }
 
 IoStatus SimTransport::write(const OutputReport& report) noexcept {

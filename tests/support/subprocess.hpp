@@ -24,7 +24,8 @@ struct ProcessResult {
 
 class Subprocess {
  public:
-  Subprocess(const std::vector<std::string>& argv, const std::map<std::string, std::string>& env = {})
+  Subprocess(const std::vector<std::string>& argv,
+             const std::map<std::string, std::string>& env = {})
       : out_path_(tmp("out")), err_path_(tmp("err")) {
     pid_ = fork();
     if (pid_ == 0) {

@@ -27,21 +27,21 @@ inline constexpr std::size_t kMaxReportSize = 64;      ///< largest report a tra
 
 /// Input status flags (bits of InputReport::status).
 enum InputStatusFlag : std::uint16_t {
-  kStatusMotorEnabled = 1u << 0,  ///< the amplifier is enabled
+  kStatusMotorEnabled = 1u << 0,    ///< the amplifier is enabled
   kStatusAmplifierFault = 1u << 1,  ///< the amplifier reports a fault (over-current, thermal)
   kStatusWatchdog = 1u << 2,  ///< the device's own watchdog zeroed the motor (no output reports)
 };
 
 /// One input report: the device's state at one sample.
 struct InputReport {
-  std::uint16_t sequence = 0;                  ///< increments by one per report, wraps
+  std::uint16_t sequence = 0;                    ///< increments by one per report, wraps
   std::array<std::int32_t, 3> encoder_counts{};  ///< yaw θ, γ1, γ2 [counts]
-  std::uint16_t status = 0;                    ///< InputStatusFlag bits
+  std::uint16_t status = 0;                      ///< InputStatusFlag bits
 };
 
 /// One output report: the motor command.
 struct OutputReport {
-  std::uint16_t sequence = 0;  ///< increments by one per report, wraps
+  std::uint16_t sequence = 0;   ///< increments by one per report, wraps
   std::int16_t dac_counts = 0;  ///< motor command [DAC counts]
   bool enable = false;          ///< amplifier enable
 };

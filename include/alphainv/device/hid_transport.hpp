@@ -16,7 +16,7 @@ namespace alphainv::device {
 struct HidDeviceSpec {
   std::uint16_t vendor_id = 0x1209;   ///< default: pid.codes test VID
   std::uint16_t product_id = 0x0001;  ///< default test PID
-  std::string path;  ///< when not empty, hid_open_path(path) instead of the ids
+  std::string path;                   ///< when not empty, hid_open_path(path) instead of the ids
 
   /// Parses the text after "hid": "" (defaults), ":VID:PID" (hex) or ":PATH". Throws
   /// alphainv::Error naming `field`.

@@ -48,19 +48,19 @@ struct RunRecording {
   std::filesystem::path dir;  ///< dataset folder (created; its dataset.json replaced)
   std::string kind;           ///< "sine", "square", "step", "other"
   double freq_hz = 0.0, amplitude_rad = 0.0;
-  std::string command_line;   ///< for dataset.json's `command_line`
-  std::string device;         ///< Transport::describe()
-  std::string model_source;   ///< "paper" or the model file
+  std::string command_line;  ///< for dataset.json's `command_line`
+  std::string device;        ///< Transport::describe()
+  std::string model_source;  ///< "paper" or the model file
 };
 
 /// Timing statistics of a run or of the whole loop.
 struct TimingStats {
   long ticks = 0;
-  long deadline_misses = 0;     ///< ticks whose work ended after the next deadline
-  rt::LatencySummary latency;   ///< wake-up time minus the deadline
-  rt::LatencySummary read;      ///< read_latest() durations
-  rt::LatencySummary write;     ///< write() durations
-  double period_s = 0.0;        ///< nominal period [s]
+  long deadline_misses = 0;    ///< ticks whose work ended after the next deadline
+  rt::LatencySummary latency;  ///< wake-up time minus the deadline
+  rt::LatencySummary read;     ///< read_latest() durations
+  rt::LatencySummary write;    ///< write() durations
+  double period_s = 0.0;       ///< nominal period [s]
   /// One JSON object (for dataset.json's `timing` and the daemon's replies).
   std::string to_json() const;
   /// A few human-readable lines.
@@ -71,10 +71,10 @@ struct TimingStats {
 struct RunResult {
   std::uint32_t run_id = 0;
   rt::Fault fault = rt::Fault::kNone;
-  bool stopped = false;      ///< ended by a stop request rather than its duration
-  long rows = 0;             ///< rows recorded
-  long dropped_rows = 0;     ///< rows lost because the record ring was full
-  TimingStats timing;        ///< of this run's ticks
+  bool stopped = false;         ///< ended by a stop request rather than its duration
+  long rows = 0;                ///< rows recorded
+  long dropped_rows = 0;        ///< rows lost because the record ring was full
+  TimingStats timing;           ///< of this run's ticks
   std::string recording_error;  ///< why the dataset could not be written, or empty
   std::filesystem::path dir;    ///< the dataset folder, or empty when not recorded
 };
@@ -94,7 +94,7 @@ RealtimeSetup request_realtime(int priority, bool lock_memory);
 /// Settings of the runner.
 struct LoopRunnerOptions {
   std::size_t ring_capacity = 1 << 15;  ///< ticks the record ring holds (32 s at 1 kHz)
-  bool exit_when_idle = false;  ///< run() returns when a run ends (single-run mode)
+  bool exit_when_idle = false;          ///< run() returns when a run ends (single-run mode)
   /// Called on the writer thread when a run's recording is finished (may be empty).
   std::function<void(const RunResult&)> on_run_done;
 };

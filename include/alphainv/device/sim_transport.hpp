@@ -42,10 +42,10 @@ const char* to_string(SimFaultKind kind) noexcept;
 
 /// One output report as the device received it.
 struct WrittenCommand {
-  long device_tick = 0;    ///< plant ticks before this report (its index)
-  OutputReport report;     ///< as decoded (dac 0, disabled when it did not decode)
-  bool decoded = false;    ///< the report decoded
-  bool delivered = false;  ///< the device was connected and accepted it
+  long device_tick = 0;       ///< plant ticks before this report (its index)
+  OutputReport report;        ///< as decoded (dac 0, disabled when it did not decode)
+  bool decoded = false;       ///< the report decoded
+  bool delivered = false;     ///< the device was connected and accepted it
   bool fault_active = false;  ///< the injected fault was active when it arrived
 };
 

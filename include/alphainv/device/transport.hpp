@@ -30,9 +30,9 @@ const char* to_string(IoStatus status) noexcept;
 
 /// Result of Transport::read_latest().
 struct ReadResult {
-  IoStatus status = IoStatus::kNoData;  ///< kOk: `report` is the newest input report
-  InputReport report;                   ///< the newest report (valid when kOk)
-  int reports_read = 0;                 ///< how many reports this call drained
+  IoStatus status = IoStatus::kNoData;      ///< kOk: `report` is the newest input report
+  InputReport report;                       ///< the newest report (valid when kOk)
+  int reports_read = 0;                     ///< how many reports this call drained
   DecodeStatus decode = DecodeStatus::kOk;  ///< why a report was rejected (when kCorrupt)
 };
 

@@ -35,13 +35,13 @@ const char* to_string(Fault fault) noexcept;
 
 /// Limits the supervisor enforces. Always on; validate() names a bad field.
 struct SafetyLimits {
-  double max_command_v = 1.0;       ///< |v| ≤ max_command_v [V]
-  double max_slew_v_per_s = 200.0;  ///< |v_k − v_{k−1}| ≤ max_slew_v_per_s·T [V/s]
-  double theta_limit_rad = 1.0;     ///< |θ| ≤ theta_limit_rad [rad]
+  double max_command_v = 1.0;        ///< |v| ≤ max_command_v [V]
+  double max_slew_v_per_s = 200.0;   ///< |v_k − v_{k−1}| ≤ max_slew_v_per_s·T [V/s]
+  double theta_limit_rad = 1.0;      ///< |θ| ≤ theta_limit_rad [rad]
   double max_theta_step_rad = 0.05;  ///< |θ_k − θ_{k−1}| per report [rad] (50 rad/s at 1 kHz)
-  int stall_periods = 20;           ///< ticks without a new input report before kReadStall
-  int max_missed_deadlines = 10;    ///< consecutive deadline misses before kDeadlineMisses
-  int max_sequence_gap = 32;        ///< a report's sequence may advance by 1 … this per tick
+  int stall_periods = 20;            ///< ticks without a new input report before kReadStall
+  int max_missed_deadlines = 10;     ///< consecutive deadline misses before kDeadlineMisses
+  int max_sequence_gap = 32;         ///< a report's sequence may advance by 1 … this per tick
 
   /// True when max_command_v fits the DAC (≤ 32767 counts at `dac_counts_per_v`).
   bool scaling_ok(double dac_counts_per_v) const noexcept {
@@ -70,7 +70,7 @@ struct ControlLoopConfig {
   double kp = 2.0;         ///< P gain [V/rad]
   double kp_max = 10.0;    ///< largest P gain set_kp() accepts [V/rad]
   SafetyLimits safety;
-  AlphaEstimatorConfig estimator{};  ///< its sample_period_s is set to period_s
+  AlphaEstimatorConfig estimator{};              ///< its sample_period_s is set to period_s
   InertiaModel inertia = paper_inertia_model();  ///< I(γ1, γ2), eq. (6)
   AlphaModel model = paper_alpha_model();        ///< C(α, I), β̃(α, I), eqs. (38)-(42)
   device::ReportScaling scaling;                 ///< counts ↔ rad, V ↔ DAC counts
@@ -81,26 +81,26 @@ struct ControlLoopConfig {
 
 /// What one tick did (one row of the recording).
 struct TickRecord {
-  double t_s = 0.0;           ///< time since the loop started [s]
-  double r_rad = 0.0;         ///< reference [rad]
-  double theta_rad = 0.0;     ///< measured θ [rad] (held when no new report arrived)
-  double gamma1_rad = 0.0;    ///< measured γ1 [rad]
-  double gamma2_rad = 0.0;    ///< measured γ2 [rad]
-  double command_v = 0.0;     ///< command sent, after clamp, slew limit and DAC rounding [V]
-  double alpha = 0.0;         ///< α̂ of the command history [V²/s²], eq. (33)
-  double damping = 0.0;       ///< C(α̂, I) [1/s]
-  double beta_tilde = 0.0;    ///< β̃(α̂, I) [rad/s² per V]
-  double inertia = 0.0;       ///< I(γ1, γ2)
-  double theta_pred_rad = 0.0;  ///< the model's prediction of this θ, made one tick earlier [rad]
-  double wake_latency_s = 0.0;  ///< wake-up time minus the deadline [s] (set by the runner)
-  double read_s = 0.0;          ///< duration of read_latest() [s] (set by the runner)
-  double write_s = 0.0;         ///< duration of write() [s] (set by the runner)
-  std::uint16_t sequence = 0;   ///< sequence of the newest input report
-  std::int16_t dac_counts = 0;  ///< DAC counts sent
-  bool enable = false;          ///< amplifier enable sent
-  bool new_report = false;      ///< a new input report arrived this tick
+  double t_s = 0.0;              ///< time since the loop started [s]
+  double r_rad = 0.0;            ///< reference [rad]
+  double theta_rad = 0.0;        ///< measured θ [rad] (held when no new report arrived)
+  double gamma1_rad = 0.0;       ///< measured γ1 [rad]
+  double gamma2_rad = 0.0;       ///< measured γ2 [rad]
+  double command_v = 0.0;        ///< command sent, after clamp, slew limit and DAC rounding [V]
+  double alpha = 0.0;            ///< α̂ of the command history [V²/s²], eq. (33)
+  double damping = 0.0;          ///< C(α̂, I) [1/s]
+  double beta_tilde = 0.0;       ///< β̃(α̂, I) [rad/s² per V]
+  double inertia = 0.0;          ///< I(γ1, γ2)
+  double theta_pred_rad = 0.0;   ///< the model's prediction of this θ, made one tick earlier [rad]
+  double wake_latency_s = 0.0;   ///< wake-up time minus the deadline [s] (set by the runner)
+  double read_s = 0.0;           ///< duration of read_latest() [s] (set by the runner)
+  double write_s = 0.0;          ///< duration of write() [s] (set by the runner)
+  std::uint16_t sequence = 0;    ///< sequence of the newest input report
+  std::int16_t dac_counts = 0;   ///< DAC counts sent
+  bool enable = false;           ///< amplifier enable sent
+  bool new_report = false;       ///< a new input report arrived this tick
   bool deadline_missed = false;  ///< the previous tick overran its period
-  Fault fault = Fault::kNone;   ///< the fault in force (the command is then 0, disabled)
+  Fault fault = Fault::kNone;    ///< the fault in force (the command is then 0, disabled)
 };
 
 /// The tick (see the file comment). Not thread-safe: one thread calls tick(), set_reference() and

@@ -17,7 +17,7 @@ struct LatencySummary {
 /// Histogram of durations (see the file comment).
 class LatencyHistogram {
  public:
-  static constexpr int kBins = 20000;        ///< bins of kBinWidthS; above: overflow
+  static constexpr int kBins = 20000;         ///< bins of kBinWidthS; above: overflow
   static constexpr double kBinWidthS = 1e-6;  ///< bin width [s]
 
   /// Adds one duration [s] (negative counts as 0). Real-time safe: no allocation, no locks, no I/O.
