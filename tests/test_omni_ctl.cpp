@@ -4,6 +4,7 @@
 // reports that reached the device (zero and disabled within 2 ticks of detection), and that the
 // recording up to the fault reads back with the dataset reader.
 #include <gtest/gtest.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <filesystem>
@@ -51,8 +52,7 @@ std::vector<Written> read_log(const fs::path& path) {
 }
 
 std::vector<std::string> base_args(const char* bin, const fs::path& record) {
-  return {bin, "--joint",    "yaw",      "--local",      "--rt-priority",
-          "0", "--no-mlock", "--record", record.string()};
+  return {bin, "--joint", "yaw", "--local", "--no-mlock", "--record", record.string()};
 }
 
 struct HidFaultCase {
@@ -189,7 +189,10 @@ TEST(OmniCtl, HidFaultsStopTheMotorAndKeepTheRecording) {
     json << f.rdbuf();
     EXPECT_NE(json.str().find(fc.dataset_ended), std::string::npos) << json.str().substr(0, 400);
     if (std::string(fc.double_fault).size() > 0) {
-      EXPECT_NEAR(run.t.back(), 0.4, 0.1);  // the run's t starts a tick after the loop's
+      // Device tick 400 carries the fault; the run began at loop tick 1 (stall: + 20 ticks to
+      // detect, deadline: + 10 misses).
+      EXPECT_GE(run.size(), 398u);
+      EXPECT_LE(run.size(), 425u);
     }
     fs::remove_all(dir);
   }
@@ -254,4 +257,22 @@ TEST(OmniCtl, BadInputIsRejectedWithTheFieldNamed) {
   EXPECT_EQ(r.exit_code, 4) << r.err;
   EXPECT_NE(r.err.find("cannot open the HID device"), std::string::npos) << r.err;
   fs::remove_all(dir);
+}
+
+TEST(OmniCtl, WithoutRealtimePermissionItWarnsAndStillRuns) {
+  if (getuid() != 0) GTEST_SKIP() << "needs root to drop to an unprivileged user";
+  // As uid 65534 (nobody), with RLIMIT_RTPRIO inherited from this process.
+  struct rlimit rt {};
+  getrlimit(RLIMIT_RTPRIO, &rt);
+  if (rt.rlim_cur >= 80) GTEST_SKIP() << "RLIMIT_RTPRIO allows SCHED_FIFO 80 to anyone here";
+  Subprocess p({OMNI_CTL_BIN, "--joint", "yaw", "--local", "--sine", "3Hz", "--duration", "0.3s",
+                "--device", "sim", "--socket", "/nonexistent/omni_ctl.sock"},
+               {}, 65534);
+  const ProcessResult r = p.wait(30.0);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("warning: SCHED_FIFO priority 80 refused"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("normal scheduler"), std::string::npos) << r.err;
+  const auto at = r.err.find("timing: ticks ");
+  ASSERT_NE(at, std::string::npos) << r.err;
+  EXPECT_GE(std::atol(r.err.c_str() + at + 14), 150) << r.err;  // the loop ran (~300 ticks)
 }

@@ -160,7 +160,10 @@ TEST(OmniCtlDaemon, ServesCommandsRejectsBadMessagesAndKeepsTheLoopRunning) {
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   const long ticks = s1["ticks"].get<long>() - s0["ticks"].get<long>();
   EXPECT_NEAR(static_cast<double>(ticks), elapsed_ms, 0.1 * elapsed_ms + 20);
-  EXPECT_LE(s1["deadline_misses"].get<long>() - s0["deadline_misses"].get<long>(), 2);
+  // Under SCHED_FIFO no miss is expected; under the normal scheduler a loaded machine may cost a
+  // few, but not because of the messages.
+  const long misses = s1["deadline_misses"].get<long>() - s0["deadline_misses"].get<long>();
+  EXPECT_LE(misses, s1["realtime"].get<bool>() ? 2 : 2 + ticks / 100);
 
   // Gains within limits.
   EXPECT_TRUE(c.request(R"({"cmd":"gains","kp":3})").value("ok", false));
@@ -273,6 +276,43 @@ TEST(OmniCtlDaemon, SecondDaemonOnTheSameSocketIsRefused) {
       {OMNI_CTL_BIN, "--daemon", "--device", "sim", "--socket", d.socket, "--no-mlock"}, {}, 10.0);
   EXPECT_EQ(second.exit_code, 4) << second.err;
   EXPECT_NE(second.err.find("already listening"), std::string::npos) << second.err;
+  d.process->signal(SIGTERM);
+  EXPECT_EQ(d.process->wait(10.0).exit_code, 0);
+}
+
+TEST(OmniCtlDaemon, PeersOfAnotherUidAreRefused) {
+  if (getuid() != 0) GTEST_SKIP() << "needs root to connect as another user";
+  Daemon d("peercred");
+  ASSERT_TRUE(fs::exists(d.socket)) << d.process->err_so_far();
+  // The 0700 folder already keeps others out; open it up so only SO_PEERCRED stands in the way.
+  ASSERT_EQ(chmod(fs::path(d.socket).parent_path().c_str(), 0755), 0);
+  ASSERT_EQ(chmod(d.socket.c_str(), 0666), 0);
+  int pipefd[2];
+  ASSERT_EQ(pipe(pipefd), 0);
+  const pid_t child = fork();
+  if (child == 0) {
+    close(pipefd[0]);
+    if (setgid(65534) != 0 || setuid(65534) != 0) _exit(2);
+    Client c(d.socket);
+    if (!c.connected()) _exit(3);
+    const json r = c.next(5.0);
+    const std::string text = r.is_null() ? "null" : r.dump();
+    if (write(pipefd[1], text.data(), text.size()) < 0) _exit(4);
+    _exit(c.next(2.0).is_null() && c.closed() ? 0 : 5);
+  }
+  close(pipefd[1]);
+  int status = 0;
+  waitpid(child, &status, 0);
+  char buf[512] = {};
+  const ssize_t n = read(pipefd[0], buf, sizeof buf - 1);
+  close(pipefd[0]);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+  ASSERT_GT(n, 0);
+  EXPECT_NE(std::string(buf).find("permission denied"), std::string::npos) << buf;
+  // The daemon's own user still gets in.
+  Client ok(d.socket);
+  EXPECT_TRUE(ok.request(R"({"cmd":"status"})").value("ok", false));
   d.process->signal(SIGTERM);
   EXPECT_EQ(d.process->wait(10.0).exit_code, 0);
 }

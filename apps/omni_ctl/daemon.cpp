@@ -41,6 +41,7 @@ using Clock = std::chrono::steady_clock;
 
 constexpr std::size_t kMaxMessageBytes = 4096;  ///< one request line, newline excluded
 constexpr int kMaxClients = 16;
+std::atomic<bool> g_realtime{false};  ///< the loop thread got SCHED_FIFO
 
 struct Client {
   int fd = -1;
@@ -277,6 +278,7 @@ class Server {
                   {"running", runner_.running_waveform()},
                   {"ticks", runner_.ticks()},
                   {"deadline_misses", runner_.deadline_misses()},
+                  {"realtime", g_realtime.load()},
                   {"device", transport_.describe()},
                   {"model", model_source_},
                   {"max_command_v", runner_.config().safety.max_command_v},
@@ -486,6 +488,7 @@ int run_daemon(const Options& opt) {
   std::mutex rt_mutex;
   std::thread loop_thread([&] {
     const auto setup = device::request_realtime(opt.rt_priority, !opt.no_mlock);
+    g_realtime.store(setup.fifo);
     for (const auto& w : setup.warnings) spdlog::warn("{}", w);
     spdlog::info("loop: {} at {} Hz on {}, kp {}, max command {} V, socket {}",
                  setup.fifo ? "SCHED_FIFO" : "normal scheduler", 1.0 / cfg.period_s,

@@ -49,21 +49,25 @@ std::string TimingStats::to_json() const {
                       {"ticks", ticks},
                       {"deadline_misses", deadline_misses},
                       {"wake_latency", summary_json(latency)},
+                      {"period_jitter", summary_json(period_jitter)},
                       {"read", summary_json(read)},
                       {"write", summary_json(write)}};
   return j.dump();
 }
 
 std::string TimingStats::to_text() const {
-  char buf[512];
+  char buf[768];
   std::snprintf(buf, sizeof buf,
                 "ticks %ld, deadline misses %ld\n"
                 "wake-up latency [us]: p50 %.1f  p99 %.1f  p99.9 %.1f  max %.1f\n"
+                "period jitter [us]:   p50 %.1f  p99 %.1f  p99.9 %.1f  max %.1f\n"
                 "read [us]:            p50 %.1f  p99 %.1f  max %.1f\n"
                 "write [us]:           p50 %.1f  p99 %.1f  max %.1f",
                 ticks, deadline_misses, latency.p50_s * 1e6, latency.p99_s * 1e6,
-                latency.p999_s * 1e6, latency.max_s * 1e6, read.p50_s * 1e6, read.p99_s * 1e6,
-                read.max_s * 1e6, write.p50_s * 1e6, write.p99_s * 1e6, write.max_s * 1e6);
+                latency.p999_s * 1e6, latency.max_s * 1e6, period_jitter.p50_s * 1e6,
+                period_jitter.p99_s * 1e6, period_jitter.p999_s * 1e6, period_jitter.max_s * 1e6,
+                read.p50_s * 1e6, read.p99_s * 1e6, read.max_s * 1e6, write.p50_s * 1e6,
+                write.p99_s * 1e6, write.max_s * 1e6);
   return buf;
 }
 
@@ -139,12 +143,16 @@ LoopOutcome LoopRunner::run(const std::atomic<bool>& stop) {
   const auto rd_ptr = std::make_unique<rt::LatencyHistogram>();
   const auto wr_ptr = std::make_unique<rt::LatencyHistogram>();
   rt::LatencyHistogram& lat = *lat_ptr;
+  const auto pj_ptr = std::make_unique<rt::LatencyHistogram>();
+  rt::LatencyHistogram& pj = *pj_ptr;
+  timespec prev_wake{};
   rt::LatencyHistogram& rd = *rd_ptr;
   rt::LatencyHistogram& wr = *wr_ptr;
   long ticks = 0, misses = 0, dropped = 0;
   bool run_active = false;
   std::uint32_t run_id = 0;
   double run_end_s = 0.0;
+  double run_start_s = 0.0;
   bool pending_valid = false;
   LoopCommand pending;
   bool missed = false;
@@ -171,6 +179,11 @@ LoopOutcome LoopRunner::run(const std::atomic<bool>& stop) {
     if (ws != IoStatus::kOk) loop_.latch(rt::Fault::kDisconnected);
 
     rec.wake_latency_s = latency_s;
+    if (ticks > 0) {
+      rec.period_jitter_s = std::abs(diff_s(wake, prev_wake) - period_s);
+      pj.add(rec.period_jitter_s);
+    }
+    prev_wake = wake;
     rec.read_s = diff_s(after_read, wake);
     rec.write_s = diff_s(after_write, after_read);
     if (rec.fault == rt::Fault::kNone) rec.fault = loop_.fault();
@@ -185,6 +198,7 @@ LoopOutcome LoopRunner::run(const std::atomic<bool>& stop) {
       RecordItem item;
       item.record = rec;
       item.run_id = run_id;
+      item.run_start_s = run_start_s;
       if (!records_.push(item)) ++dropped;
     }
 
@@ -214,6 +228,7 @@ LoopOutcome LoopRunner::run(const std::atomic<bool>& stop) {
             run_active = true;
             run_active_.store(true, std::memory_order_relaxed);
             run_id = pending.run_id;
+            run_start_s = t_next;
             run_end_s =
                 pending.duration_s > 0.0 ? t_next + pending.duration_s - 0.5 * period_s : INFINITY;
             dropped = 0;
@@ -273,6 +288,7 @@ LoopOutcome LoopRunner::run(const std::atomic<bool>& stop) {
   outcome.timing.deadline_misses = misses;
   outcome.timing.period_s = period_s;
   outcome.timing.latency = lat.summary();
+  outcome.timing.period_jitter = pj.summary();
   outcome.timing.read = rd.summary();
   outcome.timing.write = wr.summary();
   // Let the writer finish what it has (the recording is complete before run() returns).
@@ -297,8 +313,10 @@ void LoopRunner::writer_main() {
         if (recordings_.count(item.run_id)) p->rows.reserve(1 << 16);
       }
       if (item.end == 0) {
+        if (p->ticks == 0) p->run_start_s = item.run_start_s;
         if (recordings_.count(item.run_id)) p->rows.push_back(item.record);
         p->latency.add(item.record.wake_latency_s);
+        if (p->ticks > 0) p->period_jitter.add(item.record.period_jitter_s);
         p->read.add(item.record.read_s);
         p->write.add(item.record.write_s);
         ++p->ticks;
@@ -339,6 +357,7 @@ void LoopRunner::finish_run(std::uint32_t run_id, const RecordItem& end_item) {
   result.timing.deadline_misses = p->misses;
   result.timing.period_s = loop_.config().period_s;
   result.timing.latency = p->latency.summary();
+  result.timing.period_jitter = p->period_jitter.summary();
   result.timing.read = p->read.summary();
   result.timing.write = p->write.summary();
 
@@ -353,7 +372,7 @@ void LoopRunner::finish_run(std::uint32_t run_id, const RecordItem& end_item) {
                                    "beta_tilde", "theta_pred", "torque_enable"};
       for (const char* name : extra_names) data.extra_columns[name].reserve(n);
       data.t.reserve(n);
-      const double t0 = rows.front().t_s;
+      const double t0 = p->run_start_s;  // t = 0 where the waveform starts
       for (const rt::TickRecord& r : rows) {
         data.t.push_back(r.t_s - t0);
         data.r.push_back(r.r_rad);

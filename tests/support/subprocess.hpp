@@ -24,8 +24,9 @@ struct ProcessResult {
 
 class Subprocess {
  public:
+  /// `run_as_uid` ≥ 0: the child drops to that uid and gid before exec (the parent must be root).
   Subprocess(const std::vector<std::string>& argv,
-             const std::map<std::string, std::string>& env = {})
+             const std::map<std::string, std::string>& env = {}, int run_as_uid = -1)
       : out_path_(tmp("out")), err_path_(tmp("err")) {
     pid_ = fork();
     if (pid_ == 0) {
@@ -34,6 +35,10 @@ class Subprocess {
       const int err = open(err_path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
       dup2(out, 1);
       dup2(err, 2);
+      if (run_as_uid >= 0 && (setgid(static_cast<gid_t>(run_as_uid)) != 0 ||
+                              setuid(static_cast<uid_t>(run_as_uid)) != 0)) {
+        _exit(126);
+      }
       std::vector<char*> args;
       for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
       args.push_back(nullptr);

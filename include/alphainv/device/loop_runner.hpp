@@ -56,11 +56,12 @@ struct RunRecording {
 /// Timing statistics of a run or of the whole loop.
 struct TimingStats {
   long ticks = 0;
-  long deadline_misses = 0;    ///< ticks whose work ended after the next deadline
-  rt::LatencySummary latency;  ///< wake-up time minus the deadline
-  rt::LatencySummary read;     ///< read_latest() durations
-  rt::LatencySummary write;    ///< write() durations
-  double period_s = 0.0;       ///< nominal period [s]
+  long deadline_misses = 0;          ///< ticks whose work ended after the next deadline
+  rt::LatencySummary latency;        ///< wake-up time minus the deadline
+  rt::LatencySummary period_jitter;  ///< |time between wake-ups − period|
+  rt::LatencySummary read;           ///< read_latest() durations
+  rt::LatencySummary write;          ///< write() durations
+  double period_s = 0.0;             ///< nominal period [s]
   /// One JSON object (for dataset.json's `timing` and the daemon's replies).
   std::string to_json() const;
   /// A few human-readable lines.
@@ -143,8 +144,9 @@ class LoopRunner {
   struct RecordItem {
     rt::TickRecord record;
     std::uint32_t run_id = 0;
-    std::uint8_t end = 0;  ///< 1: end of run (record.fault says why), 2: stopped by request
-    long dropped = 0;      ///< at end: rows dropped for a full ring
+    double run_start_s = 0.0;  ///< loop time at which the run's waveform starts (t = 0) [s]
+    std::uint8_t end = 0;      ///< 1: end of run (record.fault says why), 2: stopped by request
+    long dropped = 0;          ///< at end: rows dropped for a full ring
   };
   void writer_main();
   void finish_run(std::uint32_t run_id, const RecordItem& end_item);
@@ -167,8 +169,9 @@ class LoopRunner {
   std::map<std::uint32_t, RunRecording> recordings_;
   struct Partial {
     std::vector<rt::TickRecord> rows;  ///< only when the run is recorded
-    rt::LatencyHistogram latency, read, write;
+    rt::LatencyHistogram latency, period_jitter, read, write;
     long ticks = 0, misses = 0;
+    double run_start_s = 0.0;
   };
   std::map<std::uint32_t, std::unique_ptr<Partial>> partial_;
   std::map<std::uint32_t, RunResult> results_;

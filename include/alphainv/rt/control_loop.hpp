@@ -93,6 +93,7 @@ struct TickRecord {
   double inertia = 0.0;          ///< I(γ1, γ2)
   double theta_pred_rad = 0.0;   ///< the model's prediction of this θ, made one tick earlier [rad]
   double wake_latency_s = 0.0;   ///< wake-up time minus the deadline [s] (set by the runner)
+  double period_jitter_s = 0.0;  ///< |wake-up − previous wake-up − T| [s] (set by the runner)
   double read_s = 0.0;           ///< duration of read_latest() [s] (set by the runner)
   double write_s = 0.0;          ///< duration of write() [s] (set by the runner)
   std::uint16_t sequence = 0;    ///< sequence of the newest input report
