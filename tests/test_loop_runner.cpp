@@ -9,6 +9,7 @@
 #include <sstream>
 #include <thread>
 
+#include "../tests/support/counting_allocator.hpp"
 #include "alphainv/dataset.hpp"
 #include "alphainv/device/loop_runner.hpp"
 #include "alphainv/device/sim_transport.hpp"
@@ -158,4 +159,32 @@ TEST(LoopRunner, StopRequestEndsCleanly) {
   EXPECT_NE(slurp(dir / "dataset.json").find("\"ended\": \"stopped\""), std::string::npos);
   EXPECT_FALSE(t.device().written().back().report.enable);
   fs::remove_all(dir);
+}
+
+TEST(LoopRunner, TheLoopAllocatesNothingPerTick) {
+  // run() allocates its statistics once before the first tick; the count must not grow with the
+  // number of ticks. Holding position, no run posted: the writer thread stays idle.
+  SimTransport t(VirtualOmniParams{}, ReportScaling{});
+  LoopRunner runner(t, rt::ControlLoopConfig{}, LoopRunnerOptions{});
+  long counts[2] = {0, 0};
+  const int durations_ms[2] = {100, 400};
+  for (int i = 0; i < 2; ++i) {
+    std::atomic<bool> stop{false};
+    std::atomic<bool> go{false};
+    std::thread stopper([&] {
+      while (!go.load()) std::this_thread::yield();
+      std::this_thread::sleep_for(std::chrono::milliseconds(durations_ms[i]));
+      stop.store(true);
+    });
+    const long ticks_before = runner.ticks();
+    const long before = alphainv::test::allocation_count();
+    go.store(true);
+    const LoopOutcome out = runner.run(stop);
+    counts[i] = alphainv::test::allocation_count() - before;
+    stopper.join();
+    EXPECT_EQ(out.fault, rt::Fault::kNone);
+    EXPECT_GT(runner.ticks() - ticks_before, durations_ms[i] / 2);
+  }
+  EXPECT_EQ(counts[0], counts[1]);  // independent of the number of ticks
+  EXPECT_LE(counts[1], 4);          // the four histograms
 }

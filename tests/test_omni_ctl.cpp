@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "alphainv/dataset.hpp"
+#include "alphainv/model_file.hpp"
 #include "support/subprocess.hpp"
 
 using namespace alphainv;
@@ -275,4 +276,43 @@ TEST(OmniCtl, WithoutRealtimePermissionItWarnsAndStillRuns) {
   const auto at = r.err.find("timing: ticks ");
   ASSERT_NE(at, std::string::npos) << r.err;
   EXPECT_GE(std::atol(r.err.c_str() + at + 14), 150) << r.err;  // the loop ran (~300 ticks)
+}
+
+TEST(OmniCtl, UsesTheModelFileForCAndBetaTilde) {
+  const fs::path dir = temp_dir("model");
+  ModelFile m;
+  m.has_inertia_model = true;
+  m.linear = paper_linear_model();
+  m.linear.inertia.i_base *= 1.5;  // differs from the paper: the recording must follow the file
+  m.has_alpha_model = true;
+  m.alpha = paper_alpha_model();
+  for (std::size_t n = 0; n < m.alpha.n_breakpoints; ++n) m.alpha.c_n1[n] *= 2.0;
+  write_model_file(dir / "model.json", m);
+  auto args = base_args(OMNI_CTL_BIN, dir / "rec");
+  for (const char* a : {"--sine", "4Hz", "--duration", "0.5s", "--device", "sim"})
+    args.push_back(a);
+  args.push_back("--model");
+  args.push_back((dir / "model.json").string());
+  const ProcessResult r = run_process(args);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const Dataset ds = read_dataset_index(dir / "rec");
+  const RunData run = read_run(ds, 0);
+  const auto& alpha = *run.column("alpha");
+  const auto& c = *run.column("C");
+  const auto& beta = *run.column("beta_tilde");
+  const auto& g1 = *run.column("gamma1");
+  const auto& g2 = *run.column("gamma2");
+  double max_alpha = 0.0;
+  for (std::size_t k = 0; k < run.size(); ++k) {
+    const double inertia = m.linear.inertia.inertia(g1[k], g2[k]);
+    ASSERT_NEAR(c[k], m.alpha.damping(alpha[k], inertia), 1e-9 * c[k]) << k;
+    ASSERT_NEAR(beta[k], m.alpha.beta_tilde(alpha[k], inertia), 1e-9 * beta[k]) << k;
+    max_alpha = std::max(max_alpha, alpha[k]);
+  }
+  EXPECT_GT(max_alpha, 2.2);  // α crossed a breakpoint: C really varied with α
+  std::ifstream f(dir / "rec" / "dataset.json");
+  std::stringstream json;
+  json << f.rdbuf();
+  EXPECT_NE(json.str().find("model.json"), std::string::npos);
+  fs::remove_all(dir);
 }

@@ -118,10 +118,11 @@ int run_local(const Options& opt) {
   const device::RealtimeSetup rt_setup = device::request_realtime(opt.rt_priority, !opt.no_mlock);
   for (const auto& w : rt_setup.warnings)
     std::fprintf(stderr, "omni_ctl: warning: %s\n", w.c_str());
-  std::fprintf(stderr, "omni_ctl: %s on %s, kp %g, %s%s\n", opt.wave_kind.c_str(),
+  std::fprintf(stderr, "omni_ctl: %s on %s, kp %g, %s%s%s\n", opt.wave_kind.c_str(),
                transport->describe().c_str(), opt.kp,
                rt_setup.fifo ? "SCHED_FIFO" : "normal scheduler",
-               rt_setup.locked ? ", memory locked" : "");
+               rt_setup.locked ? ", memory locked" : "",
+               rt_setup.cpu_dma_latency_zero ? ", cpu_dma_latency 0" : "");
 
   const device::LoopOutcome outcome = runner->run(g_stop);
   device::RunResult result;

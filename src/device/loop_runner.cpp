@@ -1,9 +1,11 @@
 #include "alphainv/device/loop_runner.hpp"
 
+#include <fcntl.h>
 #include <pthread.h>
 #include <sched.h>
 #include <sys/mman.h>
 #include <time.h>
+#include <unistd.h>
 
 #include <cerrno>
 #include <chrono>
@@ -120,6 +122,21 @@ RealtimeSetup request_realtime(int priority, bool lock_memory) {
     }
   }
   if (priority > 0) {
+    // Like cyclictest: hold /dev/cpu_dma_latency at 0 µs for the process's life so the CPU does
+    // not enter deep idle states between ticks (their exit latency adds to every wake-up).
+    static int dma_fd = -1;
+    if (dma_fd < 0) {
+      dma_fd = open("/dev/cpu_dma_latency", O_WRONLY | O_CLOEXEC);
+      const std::int32_t zero = 0;
+      if (dma_fd < 0 || write(dma_fd, &zero, sizeof zero) != static_cast<ssize_t>(sizeof zero)) {
+        setup.warnings.push_back(std::string("cannot hold /dev/cpu_dma_latency at 0 (") +
+                                 std::strerror(errno) +
+                                 "): deep CPU idle states may add wake-up latency");
+        if (dma_fd >= 0) close(dma_fd);
+        dma_fd = -1;
+      }
+    }
+    setup.cpu_dma_latency_zero = dma_fd >= 0;
     sched_param sp{};
     sp.sched_priority = priority;
     const int rc = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);

@@ -84,11 +84,13 @@ struct RunResult {
 struct RealtimeSetup {
   bool fifo = false;                  ///< SCHED_FIFO granted
   bool locked = false;                ///< mlockall succeeded
+  bool cpu_dma_latency_zero = false;  ///< /dev/cpu_dma_latency held at 0 µs (as cyclictest does)
   std::vector<std::string> warnings;  ///< one line per refusal, with the fix
 };
 
 /// Asks for SCHED_FIFO at `priority` (0: don't ask) for the calling thread and, with
-/// `lock_memory`, mlockall(MCL_CURRENT | MCL_FUTURE). Never fails: refusals become warnings and
+/// `lock_memory`, mlockall(MCL_CURRENT | MCL_FUTURE); with a priority, it also holds
+/// /dev/cpu_dma_latency at 0 µs as cyclictest does. Never fails: refusals become warnings and
 /// the loop runs under the normal scheduler. Not real-time; call on the loop's thread before run().
 RealtimeSetup request_realtime(int priority, bool lock_memory);
 
