@@ -8,7 +8,7 @@ packages=(
   build-essential cmake ninja-build pkg-config
   libeigen3-dev libceres-dev libsundials-dev libnlopt-dev libnlopt-cxx-dev libhidapi-dev
   libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev libcli11-dev libspdlog-dev
-  gnuplot-nox
+  gnuplot-nox rt-tests
 )
 missing=()
 for p in "${packages[@]}"; do

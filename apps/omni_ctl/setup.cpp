@@ -1,0 +1,88 @@
+// omni_ctl: building the loop configuration and the transport from the options.
+#include <unistd.h>
+
+#include <cstdlib>
+
+#include "alphainv/device/hid_transport.hpp"
+#include "alphainv/device/sim_transport.hpp"
+#include "alphainv/error.hpp"
+#include "alphainv/model_file.hpp"
+#include "alphainv/virtual_omni.hpp"
+#include "options.hpp"
+
+namespace omni_ctl {
+
+using namespace alphainv;
+
+rt::ControlLoopConfig make_loop_config(const Options& opt, std::string& model_source,
+                                       std::string& model_note) {
+  rt::ControlLoopConfig cfg;
+  cfg.kp = opt.kp;
+  cfg.safety = opt.safety;
+  model_source = "paper (Tables 5-7)";
+  if (!opt.model_path.empty()) {
+    const ModelFile m = read_model_file(opt.model_path);  // throws naming the file and key
+    model_source = opt.model_path;
+    if (m.has_inertia_model) {
+      cfg.inertia = m.linear.inertia;
+    } else {
+      model_note += "model file has no inertia model: using the paper's I(gamma1, gamma2). ";
+    }
+    if (m.has_alpha_model) {
+      cfg.model = m.alpha;
+    } else if (m.has_inertia_model) {
+      cfg.model = constant_alpha_model(m.linear.c0_bar, 1.0);
+      model_note += "model file has no alpha model: using its global linear model (24)-(26). ";
+    } else {
+      throw Error("expected an alpha model or an inertia model, found neither", opt.model_path, 0,
+                  "alpha");
+    }
+    if (!cfg.model.valid()) {
+      throw Error("the alpha model is not valid (breakpoints must increase, C_n1 > 0)",
+                  opt.model_path, 0, "alpha");
+    }
+  }
+  cfg.validate();
+  return cfg;
+}
+
+std::unique_ptr<device::Transport> make_transport(const Options& opt) {
+  if (opt.device == "sim") {
+    device::SimFault fault;
+    if (!opt.sim_fault.empty()) fault = device::parse_sim_fault(opt.sim_fault, "--sim-fault");
+    return std::make_unique<device::SimTransport>(VirtualOmniParams{}, device::ReportScaling{},
+                                                  fault);
+  }
+  if (!opt.sim_fault.empty()) {
+    throw Error("--sim-fault needs --device sim", {}, 0, "--sim-fault");
+  }
+  if (opt.device.rfind("hid", 0) == 0) {
+    return std::make_unique<device::HidTransport>(
+        device::HidDeviceSpec::parse(opt.device.substr(3), "--device"));
+  }
+  throw Error("expected sim, hid, hid:VID:PID or hid:PATH, got '" + opt.device + "'", {}, 0,
+              "--device");
+}
+
+device::LoopCommand make_run_command(const Options& opt, std::uint32_t run_id) {
+  device::LoopCommand c;
+  c.kind = device::LoopCommand::Kind::kRun;
+  c.run_id = run_id;
+  c.duration_s = opt.duration_s;
+  c.wave.amplitude_rad = opt.amplitude_rad;
+  c.wave.freq_hz = opt.freq_hz;
+  if (opt.wave_kind == "sine") c.wave.kind = rt::WaveKind::kSine;
+  if (opt.wave_kind == "square") c.wave.kind = rt::WaveKind::kSquare;
+  if (opt.wave_kind == "step") c.wave.kind = rt::WaveKind::kStep;
+  if (opt.wave_kind == "hold") c.wave.kind = rt::WaveKind::kHold;
+  return c;
+}
+
+std::string default_socket_path() {
+  if (const char* xdg = std::getenv("XDG_RUNTIME_DIR"); xdg != nullptr && *xdg == '/') {
+    return std::string(xdg) + "/alphainv/omni_ctl.sock";
+  }
+  return "/tmp/alphainv-" + std::to_string(getuid()) + "/omni_ctl.sock";
+}
+
+}  // namespace omni_ctl

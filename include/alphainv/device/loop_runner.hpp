@@ -1,0 +1,182 @@
+#pragma once
+/// \file device/loop_runner.hpp
+/// The 1 kHz loop around rt::ControlLoop: absolute deadlines (clock_nanosleep, TIMER_ABSTIME),
+/// SCHED_FIFO and mlockall when permitted (a warning and a fallback when not), the transport's
+/// read and write each tick, commands into the loop and tick records out of it through lock-free
+/// SPSC rings, a writer thread that turns the records of a run into an alphainv-dataset/1 folder,
+/// and the timing statistics (wake-up latency p50/p99/p99.9/max, deadline misses, read/write
+/// times).
+///
+/// Each tick: read_latest() → ControlLoop::tick() → write() → push the record → pop commands.
+/// No allocation, no locks and no I/O other than the device's in the tick (run()'s loop body).
+/// On a fault the tick writes a zero, disabled report at once; on exit (fault, stop request, end
+/// of the run) a second one; then the writer thread flushes the recording (dataset.json last,
+/// atomically) before run() returns.
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "alphainv/dataset.hpp"
+#include "alphainv/device/transport.hpp"
+#include "alphainv/rt/control_loop.hpp"
+#include "alphainv/rt/latency_histogram.hpp"
+#include "alphainv/rt/spsc_ring.hpp"
+
+namespace alphainv::device {
+
+/// A command into the loop.
+struct LoopCommand {
+  enum class Kind : std::uint8_t { kRun, kStop, kSetKp };
+  Kind kind = Kind::kRun;
+  rt::Waveform wave;         ///< kRun: the waveform (offset relative to the current θ)
+  double duration_s = 0.0;   ///< kRun: how long [s]; ≤ 0: until a kStop
+  double kp = 0.0;           ///< kSetKp: the new gain [V/rad]
+  std::uint32_t run_id = 0;  ///< kRun: the run's id (its recording, if registered)
+};
+
+/// Where and how a run is recorded.
+struct RunRecording {
+  std::filesystem::path dir;  ///< dataset folder (created; its dataset.json replaced)
+  std::string kind;           ///< "sine", "square", "step", "other"
+  double freq_hz = 0.0, amplitude_rad = 0.0;
+  std::string command_line;  ///< for dataset.json's `command_line`
+  std::string device;        ///< Transport::describe()
+  std::string model_source;  ///< "paper" or the model file
+};
+
+/// Timing statistics of a run or of the whole loop.
+struct TimingStats {
+  long ticks = 0;
+  long deadline_misses = 0;          ///< ticks whose work ended after the next deadline
+  rt::LatencySummary latency;        ///< wake-up time minus the deadline
+  rt::LatencySummary period_jitter;  ///< |time between wake-ups − period|
+  rt::LatencySummary read;           ///< read_latest() durations
+  rt::LatencySummary write;          ///< write() durations
+  double period_s = 0.0;             ///< nominal period [s]
+  /// One JSON object (for dataset.json's `timing` and the daemon's replies).
+  std::string to_json() const;
+  /// A few human-readable lines.
+  std::string to_text() const;
+};
+
+/// What a finished run reports (to the writer's callback and wait_run()).
+struct RunResult {
+  std::uint32_t run_id = 0;
+  rt::Fault fault = rt::Fault::kNone;
+  bool stopped = false;         ///< ended by a stop request rather than its duration
+  long rows = 0;                ///< rows recorded
+  long dropped_rows = 0;        ///< rows lost because the record ring was full
+  TimingStats timing;           ///< of this run's ticks
+  std::string recording_error;  ///< why the dataset could not be written, or empty
+  std::filesystem::path dir;    ///< the dataset folder, or empty when not recorded
+};
+
+/// What request_realtime() obtained.
+struct RealtimeSetup {
+  bool fifo = false;                  ///< SCHED_FIFO granted
+  bool locked = false;                ///< mlockall succeeded
+  bool cpu_dma_latency_zero = false;  ///< /dev/cpu_dma_latency held at 0 µs (as cyclictest does)
+  std::vector<std::string> warnings;  ///< one line per refusal, with the fix
+};
+
+/// Asks for SCHED_FIFO at `priority` (0: don't ask) for the calling thread and, with
+/// `lock_memory`, mlockall(MCL_CURRENT | MCL_FUTURE); with a priority, it also holds
+/// /dev/cpu_dma_latency at 0 µs as cyclictest does. Never fails: refusals become warnings and
+/// the loop runs under the normal scheduler. Not real-time; call on the loop's thread before run().
+RealtimeSetup request_realtime(int priority, bool lock_memory);
+
+/// Settings of the runner.
+struct LoopRunnerOptions {
+  std::size_t ring_capacity = 1 << 15;  ///< ticks the record ring holds (32 s at 1 kHz)
+  bool exit_when_idle = false;          ///< run() returns when a run ends (single-run mode)
+  /// Called on the writer thread when a run's recording is finished (may be empty).
+  std::function<void(const RunResult&)> on_run_done;
+};
+
+/// What run() returns.
+struct LoopOutcome {
+  rt::Fault fault = rt::Fault::kNone;
+  std::string fault_detail;     ///< e.g. the transport's error text
+  bool stop_requested = false;  ///< ended by the stop flag (a signal)
+  double fault_t_s = 0.0;       ///< loop time of the fault [s]
+  TimingStats timing;           ///< the whole loop
+};
+
+/// The loop (see the file comment).
+class LoopRunner {
+ public:
+  /// Allocates the rings and the ControlLoop (throws alphainv::Error naming a bad field) and
+  /// starts the writer thread.
+  LoopRunner(Transport& transport, const rt::ControlLoopConfig& config, LoopRunnerOptions options);
+  ~LoopRunner();
+  LoopRunner(const LoopRunner&) = delete;
+  LoopRunner& operator=(const LoopRunner&) = delete;
+
+  /// Registers the recording of run `run_id`; call before posting its kRun. Any thread.
+  void add_recording(std::uint32_t run_id, RunRecording recording);
+  /// Sends a command to the loop; false when the command ring is full. One producer thread.
+  bool post(const LoopCommand& command);
+  /// Runs the loop on the calling thread (see the file comment) until `stop` becomes true, a
+  /// fault, or (exit_when_idle) the end of a run. Call request_realtime() on this thread first.
+  LoopOutcome run(const std::atomic<bool>& stop);
+  /// Pops the newest tick records pushed for streaming into `out` (keeps the last); false when
+  /// none arrived since the last call. One consumer thread.
+  bool latest(rt::TickRecord& out);
+  /// Waits up to timeout_s for run `run_id`'s result. Any thread.
+  bool wait_run(std::uint32_t run_id, double timeout_s, RunResult& out);
+  /// The loop's gain now (as of the last tick). Any thread.
+  double kp() const noexcept { return kp_.load(std::memory_order_relaxed); }
+  bool running_waveform() const noexcept { return run_active_.load(std::memory_order_relaxed); }
+  /// Ticks so far (updated every tick). Any thread.
+  long ticks() const noexcept { return ticks_.load(std::memory_order_relaxed); }
+  /// Deadline misses so far (updated every tick). Any thread.
+  long deadline_misses() const noexcept { return misses_.load(std::memory_order_relaxed); }
+  const rt::ControlLoopConfig& config() const noexcept { return loop_.config(); }
+
+ private:
+  struct RecordItem {
+    rt::TickRecord record;
+    std::uint32_t run_id = 0;
+    double run_start_s = 0.0;  ///< loop time at which the run's waveform starts (t = 0) [s]
+    std::uint8_t end = 0;      ///< 1: end of run (record.fault says why), 2: stopped by request
+    long dropped = 0;          ///< at end: rows dropped for a full ring
+  };
+  void writer_main();
+  void finish_run(std::uint32_t run_id, const RecordItem& end_item);
+
+  Transport& transport_;
+  rt::ControlLoop loop_;
+  LoopRunnerOptions options_;
+  rt::SpscRing<LoopCommand> commands_;
+  rt::SpscRing<RecordItem> records_;
+  rt::SpscRing<rt::TickRecord> stream_;
+  std::atomic<double> kp_{0.0};
+  std::atomic<bool> run_active_{false};
+  std::atomic<long> ticks_{0}, misses_{0};
+
+  // Writer thread state.
+  std::thread writer_;
+  std::atomic<bool> writer_stop_{false};
+  std::mutex mutex_;  // guards recordings_, partial_, results_ (never taken by the loop)
+  std::condition_variable done_cv_;
+  std::map<std::uint32_t, RunRecording> recordings_;
+  struct Partial {
+    std::vector<rt::TickRecord> rows;  ///< only when the run is recorded
+    rt::LatencyHistogram latency, period_jitter, read, write;
+    long ticks = 0, misses = 0;
+    double run_start_s = 0.0;
+  };
+  std::map<std::uint32_t, std::unique_ptr<Partial>> partial_;
+  std::map<std::uint32_t, RunResult> results_;
+};
+
+}  // namespace alphainv::device

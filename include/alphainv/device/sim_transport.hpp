@@ -1,0 +1,109 @@
+#pragma once
+/// \file device/sim_transport.hpp
+/// The virtual Omni as a device: VirtualDevice speaks the HID reports of hid_report.hpp over
+/// bytes (one plant tick per output report, one input report queued per tick) and injects
+/// faults; SimTransport puts it behind the Transport interface in process. The hidapi test double
+/// (tests/hid_double) wraps the same VirtualDevice behind the hid_* C API.
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "alphainv/device/hid_report.hpp"
+#include "alphainv/device/transport.hpp"
+#include "alphainv/virtual_omni.hpp"
+
+namespace alphainv::device {
+
+/// Faults the virtual device can inject.
+enum class SimFaultKind {
+  kNone,
+  kDisconnect,     ///< reads and writes fail from then on (the cable is pulled)
+  kStall,          ///< no more input reports; writes are accepted and ignored
+  kCorrupt,        ///< input reports carry a wrong checksum
+  kOutOfSequence,  ///< the input sequence number jumps back by 5
+  kEncoderJump,    ///< the yaw encoder jumps by +0.5 rad and stays offset
+  kSlow,           ///< each read takes 3 ms (the host misses its deadlines)
+};
+
+/// A fault and when it starts [s of device time: ticks stepped × T].
+struct SimFault {
+  SimFaultKind kind = SimFaultKind::kNone;
+  double at_s = 0.0;
+};
+
+/// Parses "KIND@SECONDS" (KIND: disconnect, stall, corrupt, sequence, encoder-jump, slow; SECONDS
+/// ≥ 0, an optional trailing "s"). Throws alphainv::Error naming `field` and the text.
+SimFault parse_sim_fault(const std::string& text, const std::string& field = "--sim-fault");
+/// Name of a fault kind as parse_sim_fault spells it.
+const char* to_string(SimFaultKind kind) noexcept;
+
+/// One output report as the device received it.
+struct WrittenCommand {
+  long device_tick = 0;       ///< plant ticks before this report (its index)
+  OutputReport report;        ///< as decoded (dac 0, disabled when it did not decode)
+  bool decoded = false;       ///< the report decoded
+  bool delivered = false;     ///< the device was connected and accepted it
+  bool fault_active = false;  ///< the injected fault was active when it arrived
+};
+
+/// The virtual Omni behind HID reports (see the file comment).
+class VirtualDevice {
+ public:
+  /// Builds the plant (throws alphainv::Error naming a bad plant field) and queues the first input
+  /// report. `log_capacity`: how many written commands are kept (the newest).
+  VirtualDevice(const VirtualOmniParams& params, const ReportScaling& scaling, SimFault fault,
+                std::size_t log_capacity = 8192);
+
+  /// Takes one output report: steps the plant one tick with its command (0 V when disabled or
+  /// undecodable) and queues the next input report. Returns `len`, or −1 when disconnected.
+  /// Real-time safe.
+  int write(const std::uint8_t* data, std::size_t len) noexcept;
+  /// Pops the oldest queued input report into `buf`. Returns its length, 0 when none is queued,
+  /// −1 when disconnected. Real-time safe.
+  int read(std::uint8_t* buf, std::size_t len) noexcept;
+  /// True when the injected fault is active now.
+  bool fault_active() const noexcept;
+  /// True when reads should take longer than a period (kSlow active).
+  bool slow() const noexcept { return fault_active() && fault_.kind == SimFaultKind::kSlow; }
+
+  const VirtualOmni& plant() const noexcept { return plant_; }
+  const ReportScaling& scaling() const noexcept { return scaling_; }
+  /// The newest written commands, oldest first (at most log_capacity). Not real-time.
+  std::vector<WrittenCommand> written() const;
+  /// Device tick at which the fault became active, or −1.
+  long fault_tick() const noexcept { return fault_tick_; }
+
+ private:
+  void queue_report() noexcept;
+
+  VirtualOmni plant_;
+  ReportScaling scaling_;
+  SimFault fault_;
+  long fault_tick_ = -1;
+  std::uint16_t sequence_ = 0;
+  static constexpr std::size_t kQueue = 256;
+  std::array<std::array<std::uint8_t, kInputReportSize>, kQueue> queue_{};
+  std::size_t queue_head_ = 0, queue_size_ = 0;
+  std::vector<WrittenCommand> log_;  ///< ring of the newest commands, sized at construction
+  std::size_t log_count_ = 0;
+};
+
+/// VirtualDevice behind the Transport interface, in process.
+class SimTransport final : public Transport {
+ public:
+  SimTransport(const VirtualOmniParams& params, const ReportScaling& scaling, SimFault fault = {});
+  void open() override {}
+  [[nodiscard]] ReadResult read_latest() noexcept override;
+  [[nodiscard]] IoStatus write(const OutputReport& report) noexcept override;
+  void close() noexcept override {}
+  std::string describe() const override;
+  VirtualDevice& device() noexcept { return device_; }
+
+ private:
+  VirtualDevice device_;
+};
+
+}  // namespace alphainv::device

@@ -1,0 +1,243 @@
+#include "alphainv/rt/control_loop.hpp"
+
+#include <cmath>
+#include <string>
+
+#include "alphainv/error.hpp"
+
+namespace alphainv::rt {
+namespace {
+
+AlphaEstimatorConfig estimator_for(const ControlLoopConfig& c) {
+  AlphaEstimatorConfig e = c.estimator;
+  e.sample_period_s = c.period_s;
+  return e;
+}
+
+void require(bool ok, const std::string& field, const std::string& expected, double got) {
+  if (!ok) throw Error("expected " + expected + ", got " + std::to_string(got), {}, 0, field);
+}
+
+}  // namespace
+
+const char* to_string(Fault fault) noexcept {
+  switch (fault) {
+    case Fault::kNone:
+      return "no fault";
+    case Fault::kDisconnected:
+      return "device disconnected (a read or write failed)";
+    case Fault::kReadStall:
+      return "input reports stalled (no new report for too many periods)";
+    case Fault::kCorruptReport:
+      return "corrupt input report (length, report id or checksum)";
+    case Fault::kOutOfSequence:
+      return "input report out of sequence";
+    case Fault::kEncoderJump:
+      return "encoder jump (theta changed too much in one tick)";
+    case Fault::kAngleLimit:
+      return "angle limit exceeded";
+    case Fault::kDeadlineMisses:
+      return "too many deadlines missed in a row";
+  }
+  return "unknown fault";
+}
+
+double Waveform::at(double t_s) const noexcept {
+  switch (kind) {
+    case WaveKind::kHold:
+      return offset_rad;
+    case WaveKind::kSine:
+      return offset_rad + amplitude_rad * std::sin(2.0 * kPi * freq_hz * t_s);
+    case WaveKind::kSquare: {
+      const double cycles = freq_hz * t_s;
+      return cycles - std::floor(cycles) < 0.5 ? offset_rad + amplitude_rad
+                                               : offset_rad - amplitude_rad;
+    }
+    case WaveKind::kStep:
+      return t_s >= 0.0 ? offset_rad + amplitude_rad : offset_rad;
+  }
+  return offset_rad;
+}
+
+void ControlLoopConfig::validate() const {
+  require(std::isfinite(period_s) && period_s >= 1e-5 && period_s <= 0.1, "period_s",
+          "10 us <= period <= 100 ms", period_s);
+  require(std::isfinite(kp_max) && kp_max > 0.0, "kp_max", "a positive number", kp_max);
+  require(std::isfinite(kp) && kp >= 0.0 && kp <= kp_max, "kp",
+          "0 <= kp <= " + std::to_string(kp_max), kp);
+  const SafetyLimits& s = safety;
+  require(std::isfinite(s.max_command_v) && s.max_command_v > 0.0 &&
+              s.scaling_ok(scaling.dac_counts_per_v),
+          "max_command_v", "0 < max command <= the DAC's full scale", s.max_command_v);
+  require(std::isfinite(s.max_slew_v_per_s) && s.max_slew_v_per_s > 0.0, "max_slew_v_per_s",
+          "a positive slew limit [V/s]", s.max_slew_v_per_s);
+  require(std::isfinite(s.theta_limit_rad) && s.theta_limit_rad > 0.0, "theta_limit_rad",
+          "a positive angle limit [rad]", s.theta_limit_rad);
+  require(std::isfinite(s.max_theta_step_rad) && s.max_theta_step_rad > 0.0, "max_theta_step_rad",
+          "a positive step [rad]", s.max_theta_step_rad);
+  require(s.stall_periods >= 1, "stall_periods", "at least 1", s.stall_periods);
+  require(s.max_missed_deadlines >= 1, "max_missed_deadlines", "at least 1",
+          s.max_missed_deadlines);
+  require(s.max_sequence_gap >= 1 && s.max_sequence_gap < 32768, "max_sequence_gap", "1 … 32767",
+          s.max_sequence_gap);
+  for (std::size_t j = 0; j < 3; ++j) {
+    require(std::isfinite(scaling.counts_per_rad[j]) && scaling.counts_per_rad[j] > 0.0,
+            "scaling.counts_per_rad[" + std::to_string(j) + "]", "a positive number",
+            scaling.counts_per_rad[j]);
+  }
+  require(model.valid(), "model", "a valid alpha model (breakpoints increasing, C_n1 > 0)",
+          static_cast<double>(model.n_breakpoints));
+}
+
+ControlLoop::ControlLoop(const ControlLoopConfig& config)
+    : config_((config.validate(), config)), estimator_(estimator_for(config)), kp_(config.kp) {
+  estimator_.reset(0.0);
+}
+
+void ControlLoop::latch(Fault fault) noexcept {
+  if (fault_ == Fault::kNone) fault_ = fault;
+}
+
+void ControlLoop::set_reference(const Waveform& wave, double t_start_s, bool relative) noexcept {
+  wave_ = wave;
+  if (relative) wave_.offset_rad += theta_;
+  wave_start_s_ = t_start_s;
+}
+
+void ControlLoop::hold() noexcept {
+  wave_ = Waveform{WaveKind::kHold, 0.0, 0.0, theta_};
+  wave_start_s_ = 0.0;
+}
+
+bool ControlLoop::set_kp(double kp) noexcept {
+  if (!(kp >= 0.0 && kp <= config_.kp_max)) return false;
+  kp_ = kp;
+  return true;
+}
+
+device::OutputReport ControlLoop::safe_report() noexcept {
+  device::OutputReport out;
+  out.sequence = out_sequence_++;
+  out.dac_counts = 0;
+  out.enable = false;
+  return out;
+}
+
+void ControlLoop::supervise(const device::ReadResult& input, bool deadline_missed) noexcept {
+  const SafetyLimits& s = config_.safety;
+  consecutive_misses_ = deadline_missed ? consecutive_misses_ + 1 : 0;
+  if (consecutive_misses_ >= s.max_missed_deadlines) latch(Fault::kDeadlineMisses);
+  switch (input.status) {
+    case device::IoStatus::kDisconnected:
+      latch(Fault::kDisconnected);
+      return;
+    case device::IoStatus::kCorrupt:
+      latch(Fault::kCorruptReport);
+      return;
+    case device::IoStatus::kNoData:
+      if (++ticks_without_report_ >= s.stall_periods) latch(Fault::kReadStall);
+      return;
+    case device::IoStatus::kOk:
+      break;
+  }
+  ticks_without_report_ = 0;
+  const device::InputReport& in = input.report;
+  if (have_report_) {
+    const auto advance = static_cast<std::uint16_t>(in.sequence - last_sequence_);
+    if (advance == 0 || advance > s.max_sequence_gap) latch(Fault::kOutOfSequence);
+  }
+  last_sequence_ = in.sequence;
+  const device::ReportScaling& sc = config_.scaling;
+  const double theta = sc.angle_rad(0, in.encoder_counts[0]);
+  if (have_report_ && std::abs(theta - theta_) > s.max_theta_step_rad) latch(Fault::kEncoderJump);
+  if (!(std::abs(theta) <= s.theta_limit_rad)) latch(Fault::kAngleLimit);
+  theta_prev_ = theta_;
+  theta_ = theta;
+  gamma1_ = sc.angle_rad(1, in.encoder_counts[1]);
+  gamma2_ = sc.angle_rad(2, in.encoder_counts[2]);
+  if (!have_report_) {
+    have_report_ = true;
+    theta_prev_ = theta;
+    if (wave_.kind == WaveKind::kHold) wave_.offset_rad = theta;
+  }
+}
+
+TickRecord ControlLoop::tick(double t_s, const device::ReadResult& input, bool deadline_missed,
+                             device::OutputReport& out_report) noexcept {
+  const bool was_faulted = fault_ != Fault::kNone;
+  if (!was_faulted) supervise(input, deadline_missed);
+  const bool new_report = input.status == device::IoStatus::kOk && !was_faulted;
+
+  TickRecord rec;
+  rec.t_s = t_s;
+  rec.theta_rad = theta_;
+  rec.gamma1_rad = gamma1_;
+  rec.gamma2_rad = gamma2_;
+  rec.sequence = last_sequence_;
+  rec.new_report = new_report;
+  rec.deadline_missed = deadline_missed;
+  rec.theta_pred_rad = have_pred_ && new_report ? theta_pred_next_ : theta_;
+  rec.fault = fault_;
+  rec.r_rad = wave_.at(t_s - wave_start_s_);
+
+  if (fault_ != Fault::kNone || !have_report_) {
+    out_report = safe_report();
+    v_prev_ = 0.0;
+    have_prev_tick_ = false;
+    have_pred_ = false;
+    rec.r_rad = fault_ != Fault::kNone ? rec.r_rad : theta_;
+    return rec;
+  }
+
+  // P law, eq. (10) with ki = kd = 0, then the clamp and the slew limit.
+  const SafetyLimits& s = config_.safety;
+  double v = kp_ * (rec.r_rad - theta_);
+  if (!std::isfinite(v)) v = 0.0;
+  v = std::fmin(std::fmax(v, -s.max_command_v), s.max_command_v);
+  const double max_step = s.max_slew_v_per_s * config_.period_s;
+  v = std::fmin(std::fmax(v, v_prev_ - max_step), v_prev_ + max_step);
+  out_report.sequence = out_sequence_++;
+  out_report.dac_counts = config_.scaling.dac(v);
+  out_report.enable = true;
+  v = config_.scaling.command_v(out_report.dac_counts);  // what the device receives
+
+  // α̂ of the command history (eq. (33)), I (eq. (6)), C and β̃ (eqs. (38)-(42)).
+  const double alpha = estimator_.update(v).alpha;
+  const double inertia = config_.inertia.inertia(gamma1_, gamma2_);
+  const double c = config_.model.damping(alpha, inertia);
+  const double beta = config_.model.beta_tilde(alpha, inertia);
+
+  // One-step prediction from eq. (37), θ̈ + C θ̇ = β̃ v, exact over a tick with C, β̃, v held:
+  //   θ(T) = θ0 + θ̇0·a + (β̃v/C)(T − a),  θ̇(T) = θ̇0·e + (β̃v/C)(1 − e),  e = exp(−CT),
+  //   a = (1 − e)/C.
+  // θ̇_k comes from the last two measurements and the previous tick's command and model.
+  const double T = config_.period_s;
+  if (new_report && have_prev_tick_ && c > 0.0 && c_prev_ > 0.0) {
+    const double e_prev = std::exp(-c_prev_ * T);
+    const double a_prev = (1.0 - e_prev) / c_prev_;
+    const double g_prev = beta_prev_ * v_prev_ / c_prev_;
+    const double theta_dot_prev = (theta_ - theta_prev_ - g_prev * (T - a_prev)) / a_prev;
+    const double theta_dot = theta_dot_prev * e_prev + g_prev * (1.0 - e_prev);
+    const double e = std::exp(-c * T);
+    const double a = (1.0 - e) / c;
+    theta_pred_next_ = theta_ + theta_dot * a + (beta * v / c) * (T - a);
+    have_pred_ = true;
+  } else {
+    have_pred_ = false;
+  }
+  have_prev_tick_ = new_report;
+  v_prev_ = v;
+  c_prev_ = c;
+  beta_prev_ = beta;
+
+  rec.command_v = v;
+  rec.alpha = alpha;
+  rec.damping = c;
+  rec.beta_tilde = beta;
+  rec.inertia = inertia;
+  rec.dac_counts = out_report.dac_counts;
+  rec.enable = true;
+  return rec;
+}
+
+}  // namespace alphainv::rt
