@@ -37,6 +37,12 @@ rt::ControlLoopConfig make_loop_config(const Options& opt, std::string& model_so
       throw Error("expected an alpha model or an inertia model, found neither", opt.model_path, 0,
                   "alpha");
     }
+    cfg.effects = m.effects;  // e.g. from omni_fit diagnose: the prediction honours them
+    if (!active_effects(m.effects).empty()) {
+      std::string names;
+      for (EffectKind k : active_effects(m.effects)) names += std::string(" ") + effect_name(k);
+      model_note += "model effects:" + names + ". ";
+    }
     if (!cfg.model.valid()) {
       throw Error("the alpha model is not valid (breakpoints must increase, C_n1 > 0)",
                   opt.model_path, 0, "alpha");

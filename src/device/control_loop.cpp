@@ -1,5 +1,6 @@
 #include "alphainv/rt/control_loop.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -60,6 +61,7 @@ double Waveform::at(double t_s) const noexcept {
 }
 
 void ControlLoopConfig::validate() const {
+  validate_effects(effects, "effects.");
   require(std::isfinite(period_s) && period_s >= 1e-5 && period_s <= 0.1, "period_s",
           "10 us <= period <= 100 ms", period_s);
   require(std::isfinite(kp_max) && kp_max > 0.0, "kp_max", "a positive number", kp_max);
@@ -92,6 +94,8 @@ void ControlLoopConfig::validate() const {
 ControlLoop::ControlLoop(const ControlLoopConfig& config)
     : config_((config.validate(), config)), estimator_(estimator_for(config)), kp_(config.kp) {
   estimator_.reset(0.0);
+  const double ticks = std::round(config_.effects.delay_s / config_.period_s);
+  delay_ticks_ = static_cast<std::size_t>(std::min(ticks, static_cast<double>(kMaxDelayTicks)));
 }
 
 void ControlLoop::latch(Fault fault) noexcept {
@@ -183,6 +187,7 @@ TickRecord ControlLoop::tick(double t_s, const device::ReadResult& input, bool d
   if (fault_ != Fault::kNone || !have_report_) {
     out_report = safe_report();
     v_prev_ = 0.0;
+    u_prev_ = 0.0;
     have_prev_tick_ = false;
     have_pred_ = false;
     rec.r_rad = fault_ != Fault::kNone ? rec.r_rad : theta_;
@@ -201,8 +206,14 @@ TickRecord ControlLoop::tick(double t_s, const device::ReadResult& input, bool d
   out_report.enable = true;
   v = config_.scaling.command_v(out_report.dac_counts);  // what the device receives
 
+  // The model's input: the command through its effects (delay, deadzone, saturation).
+  v_head_ = (v_head_ + 1) % v_history_.size();
+  v_history_[v_head_] = v;
+  const double v_model = amplifier(
+      config_.effects, v_history_[(v_head_ + v_history_.size() - delay_ticks_) % v_history_.size()]);
+
   // α̂ of the command history (eq. (33)), I (eq. (6)), C and β̃ (eqs. (38)-(42)).
-  const double alpha = estimator_.update(v).alpha;
+  const double alpha = estimator_.update(v_model).alpha;
   const double inertia = config_.inertia.inertia(gamma1_, gamma2_);
   const double c = config_.model.damping(alpha, inertia);
   const double beta = config_.model.beta_tilde(alpha, inertia);
@@ -215,16 +226,20 @@ TickRecord ControlLoop::tick(double t_s, const device::ReadResult& input, bool d
   if (new_report && have_prev_tick_ && c > 0.0 && c_prev_ > 0.0) {
     const double e_prev = std::exp(-c_prev_ * T);
     const double a_prev = (1.0 - e_prev) / c_prev_;
-    const double g_prev = beta_prev_ * v_prev_ / c_prev_;
+    const double g_prev = beta_prev_ * u_prev_ / c_prev_;
     const double theta_dot_prev = (theta_ - theta_prev_ - g_prev * (T - a_prev)) / a_prev;
     const double theta_dot = theta_dot_prev * e_prev + g_prev * (1.0 - e_prev);
     const double e = std::exp(-c * T);
     const double a = (1.0 - e) / c;
-    theta_pred_next_ = theta_ + theta_dot * a + (beta * v / c) * (T - a);
+    // u: the command through the effects plus their torque n(θ, θ̇), held over the tick.
+    const double u = v_model + effect_torque(config_.effects, theta_, theta_dot);
+    theta_pred_next_ = theta_ + theta_dot * a + (beta * u / c) * (T - a);
+    u_prev_ = u;
     have_pred_ = true;
   } else {
     have_pred_ = false;
   }
+  if (!have_pred_) u_prev_ = v_model + effect_torque(config_.effects, theta_, 0.0);
   have_prev_tick_ = new_report;
   v_prev_ = v;
   c_prev_ = c;

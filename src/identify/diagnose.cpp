@@ -750,7 +750,9 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
     if (named) {
       const double keep = 1.0 - opt.significance;
       named = best->score <= keep * none->score && best->fold_scores[0] <= keep * none->fold_scores[0] &&
-              best->fold_scores[1] <= keep * none->fold_scores[1];
+              best->fold_scores[1] <= keep * none->fold_scores[1] &&
+              // ... and the whole runs agree: the error over all samples of all runs drops too.
+              best->error_after <= (1.0 - 0.5 * opt.significance) * none->error_after;
     }
     rd.named = named ? best->effect : EffectKind::kNone;
     if (!named) {  // `none`: the model stays as it was

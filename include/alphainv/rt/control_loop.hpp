@@ -8,11 +8,14 @@
 /// Split like ros2_control: the constructor validates and allocates nothing on the heap after it
 /// returns; tick(), set_reference(), set_kp() are noexcept and real-time safe.
 
+#include <array>
+#include <cstddef>
 #include <cstdint>
 
 #include "alphainv/damping_model.hpp"
 #include "alphainv/device/hid_report.hpp"
 #include "alphainv/device/transport.hpp"
+#include "alphainv/effects.hpp"
 #include "alphainv/inertia_model.hpp"
 #include "alphainv/rt/alpha_estimator.hpp"
 
@@ -73,6 +76,10 @@ struct ControlLoopConfig {
   AlphaEstimatorConfig estimator{};              ///< its sample_period_s is set to period_s
   InertiaModel inertia = paper_inertia_model();  ///< I(γ1, γ2), eq. (6)
   AlphaModel model = paper_alpha_model();        ///< C(α, I), β̃(α, I), eqs. (38)-(42)
+  /// Effects of the model (effects.hpp; model.json's "effects", e.g. from omni_fit diagnose): the
+  /// prediction uses u = S(Z(v(t − τ))) + n(θ, θ̇) for v, and α̂ is that of S(Z(v(t − τ))).
+  /// The delay is rounded to whole ticks, at most kMaxDelayTicks.
+  Effects effects;
   device::ReportScaling scaling;                 ///< counts ↔ rad, V ↔ DAC counts
 
   /// Throws alphainv::Error naming the first bad field. Not real-time.
@@ -157,6 +164,12 @@ class ControlLoop {
   // The previous tick's model quantities, for the velocity estimate of the prediction.
   bool have_prev_tick_ = false;
   double v_prev_ = 0.0, c_prev_ = 0.0, beta_prev_ = 0.0;
+  double u_prev_ = 0.0;  ///< the previous tick's model input u (command through the effects)
+  /// Commands sent, for the model's delay (a ring; no allocation in the tick).
+  static constexpr std::size_t kMaxDelayTicks = 1023;
+  std::array<double, kMaxDelayTicks + 1> v_history_{};
+  std::size_t v_head_ = 0;
+  std::size_t delay_ticks_ = 0;
   double theta_pred_next_ = 0.0;
   bool have_pred_ = false;
 };
