@@ -14,7 +14,7 @@
 ///    RMS error on the other half, and the other way round), so a bigger model does not win by
 ///    default. The best candidate is named only when its cross-validated error is below
 ///    (1 − significance) times that of `none` in both folds, and its RMS over all samples of all
-///    runs is below (1 − significance/2) times that of `none`; otherwise `none`. Candidates whose
+///    runs is below (1 − significance/2) times that of the model before; otherwise `none`. Candidates whose
 ///    fit on all fit runs is not below (1 − significance/2) times that of `none` cannot meet
 ///    this and are not cross-validated (their score is their training RMS, marked). Among
 ///    candidates within 5 % of the best score the one with fewest parameters is taken.

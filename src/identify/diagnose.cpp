@@ -673,6 +673,22 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
       OutputErrorOptions oo;
       oo.threads = opt.threads;
       oo.max_iterations = 15;
+      // The command-path effects have cost functions with several minima (a delay against a
+      // lightly damped resonance; a limit or deadzone that is inactive at its start): extra starts.
+      {
+        const std::size_t at = pr.parameters.size() - 1;  // the new effect's (only) parameter
+        std::vector<double> extra;
+        if (kind == EffectKind::kTimeDelay) extra = {0.001, 0.004, 0.012};
+        if (kind == EffectKind::kSaturation) extra = {0.8 * sc.v_max, 0.5 * sc.v_max, 0.3 * sc.v_max};
+        if (kind == EffectKind::kDeadzone) extra = {0.01 * sc.v_max, 0.05 * sc.v_max};
+        for (double x : extra) {
+          std::vector<double> p0;
+          for (const auto& par : pr.parameters) p0.push_back(par.initial);
+          p0[at] = std::clamp(x, pr.parameters[at].lower, pr.parameters[at].upper);
+          if (std::abs(p0[at] - pr.parameters[at].initial) > 1e-3 * std::abs(p0[at]))
+            oo.extra_starts.push_back(p0);
+        }
+      }
       const OutputErrorResult full = fit_output_error(pr, oo);
       if (!full.ok) {
         cand.message = full.message;
@@ -698,6 +714,7 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
             pf.parameters[j].initial = std::clamp(full.values[j], pf.parameters[j].lower, pf.parameters[j].upper);
           OutputErrorOptions of = oo;
           of.max_iterations = 8;
+          of.extra_starts.clear();
           const OutputErrorResult r = fit_output_error(pf, of);
           const std::vector<double>& p = r.ok ? r.values : full.values;
           const Effects ef = effects_of(blocks, base, ms, p);
@@ -752,7 +769,7 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
       named = best->score <= keep * none->score && best->fold_scores[0] <= keep * none->fold_scores[0] &&
               best->fold_scores[1] <= keep * none->fold_scores[1] &&
               // ... and the whole runs agree: the error over all samples of all runs drops too.
-              best->error_after <= (1.0 - 0.5 * opt.significance) * none->error_after;
+              best->error_after <= (1.0 - 0.5 * opt.significance) * rd.error_before;
     }
     rd.named = named ? best->effect : EffectKind::kNone;
     if (!named) {  // `none`: the model stays as it was
