@@ -69,7 +69,8 @@ void apply_to_model(ModelFile& m, const DiagnoseResult& r) {
 /// Residual figures: θ − θ_sim before and after for the worst runs (at most 3).
 std::string residual_figures(const fs::path& out, const std::vector<DiagnoseRun>& runs,
                              const DiagnoseResult& r, const SimulationOptions& sim,
-                             const Effects& effects_before, std::string& warning) {
+                             const Effects& effects_before, const std::string& unit,
+                             std::string& warning) {
   const fs::path dir = out / "plots";
   fs::create_directories(dir);
   std::vector<std::size_t> order;
@@ -100,8 +101,10 @@ std::string residual_figures(const fs::path& out, const std::vector<DiagnoseRun>
     const std::string caption = "θ − θ_sim of " + runs[i].name + " before and after the diagnosis";
     {
       std::ofstream gp(dir / (id + ".gp"));
-      gp << gnuplot_preamble(id, caption, 900, 420) << "set title " << gnuplot_quote(caption)
-         << "\nset xlabel 'time t [s]'\nset ylabel 'θ − θ_sim [position unit]'\n"
+      gp << gnuplot_preamble(id, caption, 900, 420)
+         << "set termoption noenhanced\n"  // file names and θ_sim as written
+         << "set title " << gnuplot_quote(caption) << "\nset xlabel 'time t [s]'\nset ylabel "
+         << gnuplot_quote("θ − θ_sim [" + unit + "]") << "\n"
          << "plot '" << id << ".dat' using 1:2 with lines lc rgb '#1f77b4' title 'before', \\\n"
          << "     '' using 1:3 with lines lc rgb '#d62728' title 'after'\n";
     }
@@ -252,7 +255,8 @@ int run_diagnose(const DiagnoseCommandOptions& o) {
       std::string warning;
       const std::string figs =
           o.no_plots ? std::string()
-                     : residual_figures(out, runs, res, dopt.simulation, effects_before, warning);
+                     : residual_figures(out, runs, res, dopt.simulation, effects_before,
+                                        ds.position_unit, warning);
       if (!warning.empty() && !o.quiet) std::fprintf(stderr, "omni_fit diagnose: %s\n", warning.c_str());
       write_text_atomic(out / "report.md", make_report(o.dataset_dir, runs, res, model_source) + figs);
     } catch (const std::exception& e) {
