@@ -313,6 +313,25 @@ TEST_F(PlotsTest, GnuplotDrawsCompletePngs) {
   EXPECT_NE(md.find("![fig11_bode_pose1](plots/fig11_bode_pose1.png)"), std::string::npos);
 }
 
+TEST_F(PlotsTest, RelativeOutputFolderDraws) {
+  // `omni_fit fit DATASET -o out/fit`: gnuplot changes into the plots folder before it reads the
+  // script, so the script's path must not be relative to the caller's folder.
+  if (!gnuplot_installed()) GTEST_SKIP() << "gnuplot is not installed (Debian: gnuplot-nox)";
+  const TempDir tmp("relative");
+  const fs::path old_cwd = fs::current_path();
+  fs::current_path(tmp.path);
+  PlotOptions opt;
+  opt.out_dir = fs::path("out") / "fit";
+  const PlotSummary s = write_plots(ds_, data_, fit_, opt);
+  fs::current_path(old_cwd);
+  EXPECT_TRUE(s.gnuplot_problem.empty()) << s.gnuplot_problem;
+  ASSERT_FALSE(s.figures.empty());
+  for (const auto& f : s.figures) {
+    EXPECT_TRUE(f.drawn) << f.id << ": " << f.error;
+    EXPECT_TRUE(fs::exists(tmp.path / "out" / "fit" / "plots" / (f.id + ".png"))) << f.id;
+  }
+}
+
 TEST(Plots, FiguresWithoutDataAreSkippedWithAReason) {
   // Square runs only and no time-domain fit: no sine points, so no linear model and nothing to
   // plot.

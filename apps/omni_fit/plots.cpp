@@ -741,7 +741,10 @@ std::string read_tail(const fs::path& file, std::size_t max_chars) {
 /// Runs `gnuplot -e "cd '<dir>'; outfile='<id>.png.part'" <dir>/<id>.gp` with stderr to
 /// <id>.log; renames the PNG into place when gnuplot exits 0 and wrote a PNG. Returns "" or why
 /// not.
-std::string draw(const std::string& gnuplot, const fs::path& dir, const std::string& id) {
+std::string draw(const std::string& gnuplot, const fs::path& dir_given, const std::string& id) {
+  // Absolute: the script is named after gnuplot has changed into `dir` (a relative OUTDIR such as
+  // out/fit would otherwise be looked up from inside itself).
+  const fs::path dir = fs::absolute(dir_given);
   const fs::path png = dir / (id + ".png"), part = dir / (id + ".png.part"),
                  log = dir / (id + ".log");
   std::error_code ec;
