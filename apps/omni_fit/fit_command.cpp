@@ -51,18 +51,6 @@ std::string pose_label(const PoseFit& p) {
   return fmt(*p.gamma1_deg, "%.2f") + "° / " + fmt(*p.gamma2_deg, "%.2f") + "°";
 }
 
-void write_atomic(const fs::path& path, const std::string& text) {
-  fs::path tmp = path;
-  tmp += ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw Error("cannot open for writing", tmp.string());
-    out << text;
-    if (!out.flush()) throw Error("write failed", tmp.string());
-  }
-  fs::rename(tmp, path);
-}
-
 std::string make_report(const Dataset& ds, const DatasetFit& fit, const ModelFile& model) {
   std::ostringstream r;
   r << "# omni_fit report\n\n";
@@ -201,10 +189,6 @@ ModelFile make_model_file(const Dataset& ds, const DatasetFit& fit) {
   return model;
 }
 
-void write_text_atomic(const std::filesystem::path& path, const std::string& text) {
-  write_atomic(path, text);
-}
-
 int run_fit(const FitCommandOptions& opt) {
   Dataset ds;
   std::vector<RunData> data;
@@ -252,7 +236,7 @@ int run_fit(const FitCommandOptions& opt) {
     if (!plot_warning.empty() && !opt.quiet) {
       std::fprintf(stderr, "omni_fit fit: %s\n", plot_warning.c_str());
     }
-    write_atomic(out / "report.md", make_report(ds, fit, model) + figures);
+    write_text_atomic(out / "report.md", make_report(ds, fit, model) + figures);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "omni_fit fit: writing %s: %s\n", out.string().c_str(), e.what());
     return 2;

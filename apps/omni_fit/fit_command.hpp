@@ -1,5 +1,4 @@
 #pragma once
-#include <filesystem>
 #include <string>
 
 #include "alphainv/dataset.hpp"
@@ -23,14 +22,5 @@ int run_fit(const FitCommandOptions& options);
 
 /// model.json contents of a fit of `ds` (throws alphainv::Error when the dataset cannot be hashed).
 alphainv::ModelFile make_model_file(const alphainv::Dataset& ds, const alphainv::DatasetFit& fit);
-
-/// Writes `text` to `path` atomically (temporary file, then rename); throws alphainv::Error.
-void write_text_atomic(const std::filesystem::path& path, const std::string& text);
-
-/// model.json contents of a fit of `ds` (throws alphainv::Error when the dataset cannot be hashed).
-alphainv::ModelFile make_model_file(const alphainv::Dataset& ds, const alphainv::DatasetFit& fit);
-
-/// Writes `text` to `path` atomically (temporary file, then rename); throws alphainv::Error.
-void write_text_atomic(const std::filesystem::path& path, const std::string& text);
 
 }  // namespace omni_fit

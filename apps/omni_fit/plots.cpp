@@ -57,22 +57,6 @@ std::string gp_quote(std::string_view s) {
   return out + "'";
 }
 
-/// Writes `text` to `path` through a temporary name and a rename.
-void write_file(const fs::path& path, const std::string& text) {
-  fs::path tmp = path;
-  tmp += ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw Error("cannot open for writing", tmp.string());
-    out << text;
-    if (!out.flush()) throw Error("write failed", tmp.string());
-  }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec)
-    throw Error("cannot rename to " + path.filename().string() + ": " + ec.message(), tmp.string());
-}
-
 /// Unit strings of a dataset, in gnuplot's enhanced-text syntax (labels) and in Markdown.
 struct Units {
   std::string pos, cmd;
@@ -793,6 +777,21 @@ std::string draw(const std::string& gnuplot, const fs::path& dir_given, const st
 
 }  // namespace
 
+void write_text_atomic(const std::filesystem::path& path, const std::string& text) {
+  fs::path tmp = path;
+  tmp += ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) throw Error("cannot open for writing", tmp.string());
+    out << text;
+    if (!out.flush()) throw Error("write failed", tmp.string());
+  }
+  std::error_code ec;
+  fs::rename(tmp, path, ec);
+  if (ec)
+    throw Error("cannot rename to " + path.filename().string() + ": " + ec.message(), tmp.string());
+}
+
 std::string gnuplot_preamble(const std::string& id, const std::string& caption, int width,
                              int height) {
   return preamble(id, caption, width, height);
@@ -829,8 +828,8 @@ PlotSummary write_plots(const Dataset& dataset, const std::vector<RunData>& data
   fs::create_directories(dir, ec);
   if (ec) throw Error("cannot create the plots folder: " + ec.message(), dir.string());
   for (const Draft& d : plotter.drafts) {
-    write_file(dir / (d.id + ".dat"), d.dat);
-    write_file(dir / (d.id + ".gp"), d.gp);
+    write_text_atomic(dir / (d.id + ".dat"), d.dat);
+    write_text_atomic(dir / (d.id + ".gp"), d.gp);
     summary.figures.push_back(Figure{d.id, d.caption, false, ""});
   }
   const std::size_t n = summary.figures.size();

@@ -81,4 +81,8 @@ std::string gnuplot_quote(std::string_view s);
 std::string draw_gnuplot_figure(const std::string& gnuplot, const std::filesystem::path& dir,
                                 const std::string& id);
 
+/// Writes `text` to `path` through a temporary name in the same folder and a rename, so a reader
+/// sees the old file or the whole new one. Throws alphainv::Error naming the file.
+void write_text_atomic(const std::filesystem::path& path, const std::string& text);
+
 }  // namespace omni_fit

@@ -12,7 +12,7 @@
 #include "alphainv/diagnose.hpp"
 #include "alphainv/error.hpp"
 #include "alphainv/experiment_plan.hpp"
-#include "fit_command.hpp"
+#include "plots.hpp"
 
 namespace omni_fit {
 

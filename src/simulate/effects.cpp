@@ -1,36 +1,15 @@
 #include "alphainv/effects.hpp"
 
-#include <cstdio>
-
 #include "alphainv/error.hpp"
+#include "field_checks.hpp"
 
 namespace alphainv {
 
-namespace {
-
-std::string num(double x) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.6g", x);
-  return buf;
-}
-
-[[noreturn]] void bad(const std::string& field, const std::string& expected, double got) {
-  throw Error("expected " + expected + ", got " + num(got), {}, 0, field);
-}
-
-void require_finite(const std::string& field, double x) {
-  if (!std::isfinite(x)) bad(field, "a finite number", x);
-}
-
-void require_nonnegative(const std::string& field, double x) {
-  if (!std::isfinite(x) || x < 0.0) bad(field, "a finite number >= 0", x);
-}
-
-void require_positive(const std::string& field, double x) {
-  if (!std::isfinite(x) || !(x > 0.0)) bad(field, "a finite number > 0", x);
-}
-
-}  // namespace
+using detail::bad;
+using detail::num;
+using detail::require_finite;
+using detail::require_nonnegative;
+using detail::require_positive;
 
 const char* effect_name(EffectKind kind) noexcept {
   switch (kind) {

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "alphainv/error.hpp"
+#include "field_checks.hpp"
 
 namespace alphainv {
 
@@ -17,27 +18,11 @@ constexpr double kRk4StableHLambda = 2.5;
 /// Delay fractions below this (of a tick) count as whole ticks.
 constexpr double kDelayFractionEps = 1e-9;
 
-std::string num(double x) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.6g", x);
-  return buf;
-}
-
-[[noreturn]] void bad(const std::string& field, const std::string& expected, double got) {
-  throw Error("expected " + expected + ", got " + num(got), {}, 0, field);
-}
-
-void require_finite(const std::string& field, double x) {
-  if (!std::isfinite(x)) bad(field, "a finite number", x);
-}
-
-void require_nonnegative(const std::string& field, double x) {
-  if (!std::isfinite(x) || x < 0.0) bad(field, "a finite number >= 0", x);
-}
-
-void require_positive(const std::string& field, double x) {
-  if (!std::isfinite(x) || !(x > 0.0)) bad(field, "a finite number > 0", x);
-}
+using detail::bad;
+using detail::num;
+using detail::require_finite;
+using detail::require_nonnegative;
+using detail::require_positive;
 
 /// Largest C and β̃ of `m` at inertia I (their extremes are at breakpoints: the model is
 /// piecewise linear and held outside).
