@@ -1,0 +1,136 @@
+// effect_sine_point.hpp: the local points of sine runs with the plant input through the effects.
+// Ground truth: the virtual Omni's α-model at the run's pose and α_data.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <complex>
+#include <cstdio>
+#include <cstdlib>
+
+#include "alphainv/effect_sine_point.hpp"
+#include "alphainv/experiment_plan.hpp"
+
+namespace alphainv {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+/// One pose of the paper's sine sweep (noise-free, no quantisation) with `effects` in the plant.
+struct SweepAtPose {
+  ExperimentPlan plan;
+  std::vector<RunData> runs;
+};
+
+SweepAtPose sweep(const Effects& effects, std::vector<double> freqs) {
+  ExperimentPlanOptions o;
+  o.seed = 4;
+  o.plant.effects = effects;
+  o.plant.measurement.noise_std_rad = 0.0;
+  o.plant.measurement.quantisation_rad = 0.0;
+  o.sine_poses = {{45, 90}};
+  o.square_poses = {};
+  o.sine_freqs_hz = std::move(freqs);
+  SweepAtPose s{make_experiment_plan(o), {}};
+  for (std::size_t i = 0; i < s.plan.runs.size(); ++i) s.runs.push_back(simulate_planned_run(s.plan, i));
+  return s;
+}
+
+/// Largest relative error of C_data and of β_data/kp against the plant's C(α_data), β̃(α_data).
+struct Errors {
+  double c = 0.0, beta = 0.0;
+};
+
+Errors errors(const SweepAtPose& s, const Effects& assumed, bool must_be_physical = true) {
+  Errors e;
+  const double kp = s.plan.options.controller.kp, T = s.plan.options.plant.tick_period_s;
+  const double inertia = s.plan.poses.front().inertia;
+  const AlphaModel& truth = s.plan.options.plant.alpha_model;
+  for (std::size_t i = 0; i < s.runs.size(); ++i) {
+    const double f = s.plan.runs[i].freq_hz;
+    const IndexRange win = steady_state_window(s.runs[i].t, f, s.plan.runs[i].steady_state_start_s);
+    const LocalLinearPoint p = sine_point_with_effects(s.runs[i], win, f, kp, T, assumed);
+    if (must_be_physical) {
+      EXPECT_TRUE(p.physical) << "f = " << f;
+    }
+    if (!p.physical) {
+      e.c = e.beta = INFINITY;
+      continue;
+    }
+    e.c = std::max(e.c, std::abs(p.c_data / truth.damping(p.alpha_data, inertia) - 1.0));
+    if (std::getenv("SHOW")) std::printf("f %g C %g truth %g beta %g truth %g\n", f, p.c_data, truth.damping(p.alpha_data, inertia), p.beta_data / kp, truth.beta_tilde(p.alpha_data, inertia));
+    e.beta = std::max(e.beta,
+                      std::abs(p.beta_data / kp / truth.beta_tilde(p.alpha_data, inertia) - 1.0));
+  }
+  return e;
+}
+
+TEST(EffectSinePoint, WithoutEffectsEqualsTheClosedLoopInversion) {
+  // u = v = kp·(r − θ): the point must be the one eqs. (19)-(20) / the sampled inversion give.
+  const double kp = 2.0, T = 1e-3, f = 3.0, w = 2 * kPi * f;
+  const double c = 10.0, beta = 300.0;  // a plant, and its response: θ/r = β/(β − ω² + jωC)
+  const std::complex<double> r(0.07, 0.0);  // phasors A2 + jA1
+  const std::complex<double> th = r * beta / std::complex<double>(beta - w * w, w * c);
+  const std::complex<double> v = kp * (r - th);
+  const LocalLinearPoint a = local_linear_point_from_input(f, th, v, v, kp, T);
+  const LocalLinearPoint b = local_linear_point(f, th.imag(), th.real(), r.real(), kp, T);
+  EXPECT_NEAR(a.c_data, b.c_data, 1e-9 * std::abs(b.c_data));
+  EXPECT_NEAR(a.beta_data, b.beta_data, 1e-9 * b.beta_data);
+  EXPECT_NEAR(a.alpha_data, b.alpha_data, 1e-9 * b.alpha_data);
+  EXPECT_NEAR(a.alpha_data, w * w * std::norm(v), 1e-12 * a.alpha_data);
+  EXPECT_TRUE(a.physical);
+  // The continuous reading (T = 0) of this continuous-loop response is the plant.
+  const LocalLinearPoint a0 = local_linear_point_from_input(f, th, v, v, kp, 0.0);
+  EXPECT_NEAR(a0.c_data, c, 1e-9 * c);
+  EXPECT_NEAR(a0.beta_data, beta, 1e-9 * beta);
+}
+
+TEST(EffectSinePoint, EffectFreeRunsReadThePlant) {
+  const SweepAtPose s = sweep(Effects{}, {0.5, 2.0, 7.0});
+  const Errors e = errors(s, Effects{});
+  EXPECT_LT(e.c, 0.01);
+  EXPECT_LT(e.beta, 0.01);
+}
+
+TEST(EffectSinePoint, AGravitySpringIsTakenOutOfCAndBeta) {
+  // −g·sin θ is a spring: read as if the input were v alone it shifts C and β̃ by 1/(1 − k/ω²)-like
+  // factors at low frequency; with the spring in the input the points read the plant again.
+  Effects g;
+  g.gravity_v = 0.3;
+  const SweepAtPose s = sweep(g, {0.5, 2.0, 7.0});
+  const Errors naive = errors(s, Effects{}, false);
+  const Errors corrected = errors(s, g);
+  EXPECT_GT(std::max(naive.c, naive.beta), 0.1);
+  EXPECT_LT(corrected.c, 0.02);
+  EXPECT_LT(corrected.beta, 0.02);
+}
+
+TEST(EffectSinePoint, ATimeDelayIsTakenOutOfC) {
+  Effects d;
+  d.delay_s = 0.004;
+  const SweepAtPose s = sweep(d, {0.5, 2.0, 7.0});
+  const Errors naive = errors(s, Effects{}, false);
+  const Errors corrected = errors(s, d);
+  EXPECT_GT(naive.c, 0.1);
+  EXPECT_LT(corrected.c, 0.02);
+  EXPECT_LT(corrected.beta, 0.02);
+}
+
+TEST(EffectSinePoint, CoulombFrictionIsTakenOutOfC) {
+  // Its describing function adds 4·β̃·Fc/(π·ω·A0) to C: large at low frequency.
+  Effects c;
+  c.coulomb_v = 0.01;
+  const SweepAtPose s = sweep(c, {0.5, 2.0, 7.0});
+  const Errors naive = errors(s, Effects{}, false);
+  const Errors corrected = errors(s, c);
+  EXPECT_GT(naive.c, 0.1);
+  // The describing function holds for the fundamental only; the friction's harmonics modulate α
+  // (and so C) within a period, which leaves a few per cent (4.8 % at 2 Hz here, against +260 %
+  // uncorrected at 0.5 Hz).
+  EXPECT_LT(corrected.c, 0.06);
+  EXPECT_LT(corrected.beta, 0.03);
+  EXPECT_LT(corrected.c, 0.1 * naive.c);
+}
+
+}  // namespace
+}  // namespace alphainv
