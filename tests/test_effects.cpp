@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <limits>
+#include <string>
 
 #include <gtest/gtest.h>
 
@@ -80,6 +81,29 @@ TEST(Effects, ParametersPointAtTheirMembers) {
   EXPECT_EQ(active_effects(e).size(), 7u);
   EXPECT_TRUE(effect_parameters(EffectKind::kNone).empty());
   EXPECT_EQ(effect_parameters(EffectKind::kCogging).size(), 3u);
+}
+
+TEST(Effects, ModellingChoicesAreListedOnlyWhenAsked) {
+  // The Coulomb smoothing ε: not a fitted parameter, but what a model file stores.
+  const auto with = effect_parameters(EffectKind::kCoulombFriction, true);
+  ASSERT_EQ(with.size(), 2u);
+  EXPECT_EQ(std::string(with[0].name), "coulomb_v");
+  EXPECT_EQ(with[1].member, &Effects::coulomb_smoothing_rad_s);
+  EXPECT_EQ(effect_parameters(EffectKind::kCoulombFriction).size(), 1u);
+  for (EffectKind k : kAllEffectKinds) {
+    if (k == EffectKind::kCoulombFriction) continue;
+    EXPECT_EQ(effect_parameters(k, true).size(), effect_parameters(k).size()) << effect_name(k);
+  }
+}
+
+TEST(Effects, TextNamesTheActiveEffectsWithTheirParameters) {
+  Effects e;
+  EXPECT_EQ(effects_text(e), "none");
+  e.coulomb_v = 0.004;
+  e.delay_s = 0.002;
+  EXPECT_EQ(effects_text(e),
+            "coulomb_friction (coulomb_v = 0.004, coulomb_smoothing_rad_s = 0.001); "
+            "time_delay (delay_s = 0.002)");
 }
 
 TEST(Effects, ValidationNamesTheBadField) {

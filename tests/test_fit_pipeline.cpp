@@ -1,11 +1,13 @@
 #include "alphainv/fit_pipeline.hpp"
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <map>
 
 #include <gtest/gtest.h>
 
+#include "alphainv/error.hpp"
 #include "alphainv/inertia_model.hpp"
 #include "alphainv/reference.hpp"
 
@@ -13,9 +15,10 @@ namespace alphainv {
 namespace {
 
 /// A dataset made by the α-model itself (fixed point + RK4), at `poses`, with the Table 1 sweep
-/// and one 0.25 Hz square run per pose. Ground truth: paper_linear_model(), paper_alpha_model().
+/// and one 0.25 Hz square run per pose, the plant with `effects`. Ground truth:
+/// paper_linear_model(), paper_alpha_model().
 void make_dataset(const std::vector<std::pair<double, double>>& poses, Dataset& ds,
-                  std::vector<RunData>& data) {
+                  std::vector<RunData>& data, const Effects& effects = {}) {
   const LinearModel lin = paper_linear_model();
   ds.controller.kp = 2.0;
   for (const auto& [g1, g2] : poses) {
@@ -24,6 +27,7 @@ void make_dataset(const std::vector<std::pair<double, double>>& poses, Dataset& 
     m.c_linear = lin.damping(m.inertia);
     m.beta_tilde_linear = lin.beta_tilde(m.inertia);
     m.alpha = paper_alpha_model();
+    m.effects = effects;
     auto add = [&](const Reference& ref, const std::string& kind, double f, double theta0) {
       const auto times = uniform_times(8.0, 1e-3);
       const SimulationResult s = simulate(m, Controller{}, ref, times, {theta0, 0.0, 0.0});
@@ -161,6 +165,105 @@ TEST(FitPipeline, NoSineRunsFitsInTheTimeDomain) {
   EXPECT_LT(fit.alpha_errors.rel_position_error_median, 0.05);
   EXPECT_LT(fit.alpha_errors.rel_position_error_median,
             0.5 * fit.linear_errors.rel_position_error_median);
+}
+
+bool has_note(const DatasetFit& f, const char* what) {
+  bool found = false;
+  for (const auto& n : f.notes) found = found || n.find(what) != std::string::npos;
+  return found;
+}
+
+TEST(FitPipeline, KnownEffectsOffLeaveTheFitUnchanged) {
+  // Effects all off (a Coulomb smoothing alone switches nothing on): the fit of the option's
+  // default, number for number.
+  Dataset ds;
+  std::vector<RunData> data;
+  make_dataset({{60.08, 87.00}}, ds, data);
+  ds.sample_rate_hz = 1000.0;
+  FitPipelineOptions o;
+  o.threads = 1;
+  const DatasetFit plain = fit_dataset(ds, data, o);
+  o.effects.coulomb_smoothing_rad_s = 0.05;
+  ASSERT_TRUE(active_effects(o.effects).empty());
+  const DatasetFit off = fit_dataset(ds, data, o);
+  ASSERT_TRUE(plain.alpha.ok);
+  ASSERT_EQ(plain.sine_points.size(), off.sine_points.size());
+  for (std::size_t k = 0; k < plain.sine_points.size(); ++k) {
+    EXPECT_EQ(plain.sine_points[k].point.c_data, off.sine_points[k].point.c_data);
+    EXPECT_EQ(plain.sine_points[k].point.beta_data, off.sine_points[k].point.beta_data);
+    EXPECT_EQ(plain.sine_points[k].point.alpha_data, off.sine_points[k].point.alpha_data);
+  }
+  EXPECT_EQ(plain.alpha.model.c_n1, off.alpha.model.c_n1);
+  EXPECT_EQ(plain.alpha.model.beta_n1, off.alpha.model.beta_n1);
+  EXPECT_EQ(plain.alpha_errors.rel_position_error_median,
+            off.alpha_errors.rel_position_error_median);
+  EXPECT_EQ(plain.notes, off.notes);
+  EXPECT_FALSE(has_note(off, "known effects"));
+}
+
+TEST(FitPipeline, KnownCoulombFrictionCorrectsThePointsAndIsSimulated) {
+  // The α-model's own runs with Coulomb friction Fc = 0.01 V in the plant (continuous loop): told
+  // Fc, the fit reads the points against v + n(θ, θ̇) and simulates with the friction; not told,
+  // the points carry the friction's extra damping 4·β̃·Fc/(π·ω·A0) and the simulations miss it.
+  Effects coulomb;
+  coulomb.coulomb_v = 0.01;
+  Dataset ds;
+  std::vector<RunData> data;
+  make_dataset({{60.08, 87.00}}, ds, data, coulomb);
+  FitPipelineOptions o;
+  o.threads = 1;
+  const DatasetFit unknown = fit_dataset(ds, data, o);
+  o.effects = coulomb;
+  const DatasetFit known = fit_dataset(ds, data, o);
+  ASSERT_TRUE(known.alpha.ok && unknown.alpha.ok);
+  EXPECT_EQ(known.effects.coulomb_v, 0.01);
+  EXPECT_EQ(known.model_for_pose(0).effects.coulomb_v, 0.01);
+  EXPECT_EQ(unknown.model_for_pose(0).effects.coulomb_v, 0.0);
+  EXPECT_TRUE(has_note(known, "known effects: coulomb_friction (coulomb_v = 0.01, "
+                              "coulomb_smoothing_rad_s = 0.001)"));
+  EXPECT_FALSE(has_note(unknown, "known effects"));
+  // The points against the plant's C(α_data), β̃(α_data) (I = 1 per pose without an inertia
+  // model: compare C·I and β̃·I, which the pose's scale leaves unchanged).
+  const LinearModel lin = paper_linear_model();
+  const double inertia = lin.inertia.inertia(deg_to_rad(60.08), deg_to_rad(87.00));
+  const AlphaModel truth = paper_alpha_model();
+  auto worst = [&](const DatasetFit& f) {
+    double c = 0.0, b = 0.0;
+    for (const auto& sp : f.sine_points) {
+      const double a = sp.point.alpha_data;
+      c = std::max(c, std::abs(sp.point.c_data / truth.damping(a, inertia) - 1.0));
+      b = std::max(b, std::abs(sp.point.beta_data / (f.kp * truth.beta_tilde(a, inertia)) - 1.0));
+    }
+    return std::make_pair(c, b);
+  };
+  const auto [c_known, b_known] = worst(known);
+  const auto [c_unknown, b_unknown] = worst(unknown);
+  EXPECT_GT(c_unknown, 0.1);
+  EXPECT_LT(c_known, 0.05);
+  EXPECT_LT(b_known, 0.03);
+  // Gain and phase stay those of θ against r.
+  for (std::size_t k = 0; k < known.sine_points.size(); ++k) {
+    EXPECT_EQ(known.sine_points[k].gain, unknown.sine_points[k].gain);
+    EXPECT_EQ(known.sine_points[k].phase_deg, unknown.sine_points[k].phase_deg);
+  }
+  // The validation simulates the friction: the α-model with it reproduces the runs better.
+  EXPECT_LT(known.alpha_errors.rel_position_error_median,
+            unknown.alpha_errors.rel_position_error_median);
+  EXPECT_LT(known.alpha_errors.step_median_abs_err, unknown.alpha_errors.step_median_abs_err);
+}
+
+TEST(FitPipeline, KnownEffectsOutOfRangeThrowNamingTheField) {
+  Dataset ds;
+  std::vector<RunData> data;
+  make_dataset({{60.08, 87.00}}, ds, data);
+  FitPipelineOptions o;
+  o.effects.coulomb_v = -1.0;
+  try {
+    fit_dataset(ds, data, o);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.field(), "FitPipelineOptions::effects.coulomb_v");
+  }
 }
 
 TEST(FitPipeline, ReportsProgressOfEveryStage) {

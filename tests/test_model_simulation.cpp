@@ -9,7 +9,9 @@
 #include <fstream>
 #include <sstream>
 
+#include "alphainv/dataset.hpp"
 #include "alphainv/error.hpp"
+#include "alphainv/experiment_plan.hpp"
 #include "alphainv/identify.hpp"
 #include "alphainv/inertia_model.hpp"
 #include "alphainv/model_simulation.hpp"
@@ -304,7 +306,8 @@ std::string slurp(const fs::path& p) {
   return ss.str();
 }
 
-class OmniFitSimulate : public ::testing::Test {
+/// Runs the omni_fit binary in a fresh folder holding the paper's model.json.
+class OmniFitBinary : public ::testing::Test {
  protected:
   void SetUp() override {
     dir_ = fs::temp_directory_path() /
@@ -316,8 +319,9 @@ class OmniFitSimulate : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(dir_); }
 
-  Ran run(const std::string& args) {
-    const std::string cmd = std::string("'") + ALPHAINV_OMNI_FIT_EXE + "' simulate " + args +
+  /// `command_and_args`: e.g. "simulate MODEL --pose …".
+  Ran run_omni_fit(const std::string& command_and_args) {
+    const std::string cmd = std::string("'") + ALPHAINV_OMNI_FIT_EXE + "' " + command_and_args +
                             " >'" + (dir_ / "stdout").string() + "' 2>'" +
                             (dir_ / "stderr").string() + "'";
     const int status = std::system(cmd.c_str());
@@ -329,6 +333,11 @@ class OmniFitSimulate : public ::testing::Test {
   }
   std::string model() const { return "'" + (dir_ / "model.json").string() + "'"; }
   fs::path dir_;
+};
+
+class OmniFitSimulate : public OmniFitBinary {
+ protected:
+  Ran run(const std::string& args) { return run_omni_fit("simulate " + args); }
 };
 
 TEST_F(OmniFitSimulate, WritesTheRunTheLibrarySimulates) {
@@ -412,6 +421,93 @@ TEST_F(OmniFitSimulate, ModelWithoutAlphaModelIsExit2NamingTheKey) {
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("model.json: 'alpha_model'"), std::string::npos) << r.err;
   EXPECT_EQ(run(model() + " --pose 60.08,87 --sine 3Hz --linear -q").exit_code, 0);
+}
+
+// `omni_fit fit` with known effects (--effects-from, --effect).
+class OmniFitFitKnownEffects : public OmniFitBinary {
+ protected:
+  /// A small dataset from the virtual Omni with Coulomb friction Fc = 0.004 V: one pose, four
+  /// sine frequencies, noise-free.
+  std::string dataset() {
+    const fs::path ds = dir_ / "ds";
+    if (!fs::exists(ds / "dataset.json")) {
+      ExperimentPlanOptions o;
+      o.seed = 3;
+      o.plant.effects.coulomb_v = 0.004;
+      o.sine_poses = {{45, 90}};
+      o.square_poses = {};
+      o.sine_freqs_hz = {1.5, 3.0, 3.5, 5.0};
+      const GeneratedDataset g = generate_dataset(make_experiment_plan(o));
+      write_dataset(ds, g.index, g.runs);
+    }
+    return "'" + ds.string() + "'";
+  }
+  Ran fit(const std::string& args) {
+    return run_omni_fit("fit " + dataset() + " -o '" + (dir_ / "out").string() + "' -q --no-plots " +
+                        args);
+  }
+};
+
+TEST_F(OmniFitFitKnownEffects, TheModelAndTheReportCarryThem) {
+  const Ran r = fit("--effect coulomb_friction:coulomb_v=0.004,coulomb_smoothing_rad_s=0.002");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const ModelFile m = read_model_file(dir_ / "out" / "model.json");
+  EXPECT_EQ(m.effects.coulomb_v, 0.004);
+  EXPECT_EQ(m.effects.coulomb_smoothing_rad_s, 0.002);
+  const std::string report = slurp(dir_ / "out" / "report.md");
+  EXPECT_NE(report.find("**Fitted with known effects** (`--effect "
+                        "coulomb_friction:coulomb_v=0.004,coulomb_smoothing_rad_s=0.002`): "
+                        "coulomb_friction (coulomb_v = 0.004, coulomb_smoothing_rad_s = 0.002)"),
+            std::string::npos)
+      << report;
+  // The written model read back by --effects-from: the same effects, the file named.
+  fs::rename(dir_ / "out" / "model.json", dir_ / "diag.json");
+  const Ran again = fit("--effects-from '" + (dir_ / "diag.json").string() + "'");
+  ASSERT_EQ(again.exit_code, 0) << again.err;
+  EXPECT_EQ(read_model_file(dir_ / "out" / "model.json").effects.coulomb_v, 0.004);
+  EXPECT_NE(slurp(dir_ / "out" / "report.md").find("from `" + (dir_ / "diag.json").string() + "`"),
+            std::string::npos);
+  // Without known effects: none in the model.
+  ASSERT_EQ(fit("").exit_code, 0);
+  EXPECT_TRUE(active_effects(read_model_file(dir_ / "out" / "model.json").effects).empty());
+}
+
+TEST_F(OmniFitFitKnownEffects, BadEffectsAreExit2NamingTheFileOrOption) {
+  const Ran missing = fit("--effects-from '" + (dir_ / "none.json").string() + "'");
+  EXPECT_EQ(missing.exit_code, 2);
+  EXPECT_NE(missing.err.find("--effects-from"), std::string::npos) << missing.err;
+  EXPECT_NE(missing.err.find("none.json"), std::string::npos) << missing.err;
+  // The paper's model.json has no effects.
+  const Ran empty = fit("--effects-from " + model());
+  EXPECT_EQ(empty.exit_code, 2);
+  EXPECT_NE(empty.err.find((dir_ / "model.json").string() + " has no effects"), std::string::npos)
+      << empty.err;
+  // A malformed effect in the file: the file and the key.
+  std::string text = format_model_file(paper_model());
+  const std::string from = "\"effects\": []";
+  ASSERT_NE(text.find(from), std::string::npos);
+  text.replace(text.find(from), from.size(),
+               R"("effects": [{"effect": "time_delay", "parameters": {"delay_s": -0.004}}])");
+  std::ofstream(dir_ / "bad.json") << text;
+  const Ran bad = fit("--effects-from '" + (dir_ / "bad.json").string() + "'");
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("bad.json: 'effects[0].parameters.delay_s'"), std::string::npos) << bad.err;
+  // --effect: the option (and the offending part) named.
+  const std::pair<const char*, const char*> cases[] = {
+      {"coulomb_friction:coulomb_v=-1", "'--effect coulomb_friction:coulomb_v'"},
+      {"friction:coulomb_v=0.004", "unknown effect \"friction\""},
+      {"coulomb_friction", "'--effect coulomb_friction': expected NAME:PARAM=VALUE"},
+      {"coulomb_friction:speed=3", "PARAM one of coulomb_v, coulomb_smoothing_rad_s"},
+      {"coulomb_friction:coulomb_v=4mV", "expected a number for coulomb_v"},
+      {"coulomb_friction:coulomb_v=0", "leave coulomb_friction off"},
+      {"none:x=1", "'--effect none:x=1'"},
+  };
+  for (const auto& [spec, says] : cases) {
+    const Ran r = fit(std::string("--effect '") + spec + "'");
+    EXPECT_EQ(r.exit_code, 2) << spec;
+    EXPECT_NE(r.err.find(says), std::string::npos) << spec << ": " << r.err;
+    EXPECT_FALSE(fs::exists(dir_ / "out" / "model.json")) << spec;
+  }
 }
 
 #endif  // ALPHAINV_OMNI_FIT_EXE

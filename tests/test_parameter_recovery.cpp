@@ -17,7 +17,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "alphainv/experiment_plan.hpp"
@@ -53,11 +55,16 @@ struct Recovery {
   double c_max_rel = 0.0;              ///< max over poses and covered α of |C_fit/C_true − 1|
   double bt_max_rel = 0.0;             ///< same for β̃
   double c_max_rel_alpha_ge_10 = 0.0;  ///< the same over α ≥ 10 only
+  /// |C_fit/C_true − 1| at each α of the grid (all poses): (α, error).
+  std::vector<std::pair<double, double>> c_rel_err;
   /// max over the data points of |C_fit(α_k, I)/C_eff,k − 1|, C_eff the truth plus the Coulomb
   /// friction's describing function β̃·4Fc/(π ω A0) (A0: the point's θ amplitude): the damping the
   /// data actually carry when the plant has Coulomb friction (equal to C_true without it).
   double c_max_rel_effective = 0.0;
   double c_data_max_rel_effective = 0.0;  ///< the same for the local points' C_data
+  /// max over the data points of |C_data/C_true(α_data, I) − 1| and of |β_data/(kp·β̃_true) − 1|:
+  /// how far the local points themselves are from the plant's α-model.
+  double c_data_max_rel = 0.0, bt_data_max_rel = 0.0;
   double c0_fit = NAN, c0_ref = NAN;
   /// C̄0 the truth implies with the fit's inertia convention: eq. (29) regression β̃ = C̄0·C with
   /// β̃ = 1/(k·I_true) (k: inertia_scale) and the truth's band C_linear.
@@ -112,6 +119,11 @@ Recovery compare(const ExperimentPlan& plan, const DatasetFit& fit) {
                      std::abs(fit.alpha.model.damping(a, pose.inertia) / c_eff - 1));
         rec.c_data_max_rel_effective =
             std::max(rec.c_data_max_rel_effective, std::abs(sp.point.c_data / c_eff - 1));
+        rec.c_data_max_rel = std::max(
+            rec.c_data_max_rel, std::abs(sp.point.c_data / truth.damping(a, pp->inertia) - 1));
+        rec.bt_data_max_rel =
+            std::max(rec.bt_data_max_rel,
+                     std::abs(sp.point.beta_data / (fit.kp * truth.beta_tilde(a, pp->inertia)) - 1));
       }
       if (sp.point.freq_hz >= pose.band_lo_hz - 1e-9 &&
           sp.point.freq_hz <= pose.band_hi_hz + 1e-9) {
@@ -133,6 +145,7 @@ Recovery compare(const ExperimentPlan& plan, const DatasetFit& fit) {
       const double c_err = std::abs(c_fit / truth.damping(alpha, pp->inertia) - 1);
       rec.c_max_rel = std::max(rec.c_max_rel, c_err);
       if (alpha >= 10.0) rec.c_max_rel_alpha_ge_10 = std::max(rec.c_max_rel_alpha_ge_10, c_err);
+      rec.c_rel_err.emplace_back(alpha, c_err);
       rec.bt_max_rel =
           std::max(rec.bt_max_rel, std::abs(bt_fit / truth.beta_tilde(alpha, pp->inertia) - 1));
     }
@@ -160,6 +173,60 @@ Recovery compare(const ExperimentPlan& plan, const DatasetFit& fit) {
   return rec;
 }
 
+/// max of Recovery::c_rel_err over lo ≤ α < hi.
+double c_max_rel_between(const Recovery& rec, double lo, double hi) {
+  double m = 0.0;
+  for (const auto& [alpha, err] : rec.c_rel_err) {
+    if (alpha >= lo && alpha < hi) m = std::max(m, err);
+  }
+  return m;
+}
+
+/// With ALPHAINV_SHOW_POINTS set: each local point against the plant's α-model at its α_data
+/// (C_data, β_data/kp and the fitted C(α) against C_true, β̃_true), to see where an error comes from.
+void print_points(const ExperimentPlan& plan, const DatasetFit& fit) {
+  if (std::getenv("ALPHAINV_SHOW_POINTS") == nullptr) return;
+  const AlphaModel& truth = plan.options.plant.alpha_model;
+  for (const auto& sp : fit.sine_points) {
+    const PoseFit& pose = fit.poses[sp.pose];
+    for (const auto& q : plan.poses) {
+      if (!pose.gamma1_deg || std::abs(q.gamma1_deg - *pose.gamma1_deg) > 1e-6 ||
+          std::abs(q.gamma2_deg - *pose.gamma2_deg) > 1e-6) {
+        continue;
+      }
+      const double a = sp.point.alpha_data;
+      std::printf(
+          "      pose %zu f %4.1f Hz alpha_data %8.3f  C_data %+6.2f %%  beta_data %+6.2f %%  "
+          "C_fit(alpha) %+6.2f %%\n",
+          sp.pose, sp.point.freq_hz, a,
+          100 * (sp.point.c_data / truth.damping(a, q.inertia) - 1),
+          100 * (sp.point.beta_data / (fit.kp * truth.beta_tilde(a, q.inertia)) - 1),
+          100 * (fit.alpha.model.damping(a, pose.inertia) / truth.damping(a, q.inertia) - 1));
+    }
+  }
+}
+
+/// Inertia parameters flagged identifiable by their SEs: within 5 % of the plant's, up to the
+/// common scale k that no data can fix (γ_offs, an angle: within 1° or 2 SE).
+void expect_inertia_recovered(const ExperimentPlan& plan, const DatasetFit& fit) {
+  const double k = inertia_scale(plan, fit);
+  const InertiaModel& t = plan.options.plant.inertia;
+  const double plant[4] = {t.i_base, t.i1, t.i2, t.i3};
+  int checked = 0;
+  for (int j = 0; j < 4; ++j) {
+    const auto i = static_cast<std::size_t>(j);
+    if (fit.inertia.poorly_determined[i]) continue;
+    ++checked;
+    EXPECT_NEAR(fit.inertia.parameters[i], k * plant[j], 0.05 * k * plant[j])
+        << inertia_fit_parameter_name(j);
+  }
+  EXPECT_GE(checked, 3);
+  if (!fit.inertia.poorly_determined[kGammaOffs]) {
+    EXPECT_NEAR(fit.inertia.parameters[kGammaOffs], t.gamma_offs_rad,
+                std::max(deg_to_rad(1.0), 2.0 * fit.inertia.standard_errors[kGammaOffs]));
+  }
+}
+
 FitPipelineOptions fast_options() {
   FitPipelineOptions o;
   o.validate = false;
@@ -172,14 +239,16 @@ void print_recovery(const char* label, const DatasetFit& fit, const Recovery& re
   std::printf(
       "  [%s] T=%.3g ms score %.3g->%.3g  C(a) max err %.2f %% (a>=10: %.2f %%; vs C_eff at "
       "points: model %.2f %%, C_data %.2f %%)  bt(a) max err %.2f %%  C0 fit %.3f ref %.3f (%.2f "
-      "%%) ref(I conv.) %.3f (%.2f %%)\n      breakpoints %.3g %.3g %.3g %.3g  c_n1 %.4g %.4g %.4g "
+      "%%) ref(I conv.) %.3f (%.2f %%)\n      points vs truth: C_data %.2f %%, beta_data %.2f %%\n"
+      "      breakpoints %.3g %.3g %.3g %.3g  c_n1 %.4g %.4g %.4g "
       "%.4g  bt_n1 "
       "%.4g %.4g\n",
       label, 1e3 * fit.loop_period_s, fit.alpha.grid_score, fit.alpha.score, 100 * rec.c_max_rel,
       100 * rec.c_max_rel_alpha_ge_10, 100 * rec.c_max_rel_effective,
       100 * rec.c_data_max_rel_effective, 100 * rec.bt_max_rel, rec.c0_fit, rec.c0_ref,
       100 * (rec.c0_fit / rec.c0_ref - 1), rec.c0_ref_scaled,
-      100 * (rec.c0_fit / rec.c0_ref_scaled - 1), a.alpha[0], a.alpha[1], a.alpha[2], a.alpha[3],
+      100 * (rec.c0_fit / rec.c0_ref_scaled - 1), 100 * rec.c_data_max_rel,
+      100 * rec.bt_data_max_rel, a.alpha[0], a.alpha[1], a.alpha[2], a.alpha[3],
       a.c_n1[0], a.c_n1[1], a.c_n1[2], a.c_n1[3], a.beta_n1[0], a.beta_n1[1]);
   if (fit.has_inertia_model) {
     const double k_scale = inertia_scale(plan, fit);
@@ -219,24 +288,7 @@ TEST(ParameterRecovery, AnotherTruthFromNoisyDigitalLoopDataWithinFivePercent) {
   EXPECT_LT(rec.bt_max_rel, 0.05);
   // C̄0 against the C̄0 the truth implies on the same band with the same inertia convention.
   EXPECT_NEAR(rec.c0_fit, rec.c0_ref_scaled, 0.05 * rec.c0_ref_scaled);
-  // Inertia parameters flagged identifiable by their SEs: within 5 % of the plant's, up to the
-  // common scale k that no data can fix (γ_offs, an angle: within 1° or 2 SE).
-  const double k = inertia_scale(plan, fit);
-  const InertiaModel& t = o.plant.inertia;
-  const double plant[4] = {t.i_base, t.i1, t.i2, t.i3};
-  int checked = 0;
-  for (int j = 0; j < 4; ++j) {
-    const auto i = static_cast<std::size_t>(j);
-    if (fit.inertia.poorly_determined[i]) continue;
-    ++checked;
-    EXPECT_NEAR(fit.inertia.parameters[i], k * plant[j], 0.05 * k * plant[j])
-        << inertia_fit_parameter_name(j);
-  }
-  EXPECT_GE(checked, 3);
-  if (!fit.inertia.poorly_determined[kGammaOffs]) {
-    EXPECT_NEAR(fit.inertia.parameters[kGammaOffs], t.gamma_offs_rad,
-                std::max(deg_to_rad(1.0), 2.0 * fit.inertia.standard_errors[kGammaOffs]));
-  }
+  expect_inertia_recovered(plan, fit);
   // Breakpoints the data pin down: near the truth's (the α-model is in the plant's family here).
   for (std::size_t n = 1; n < 4; ++n) {
     if (!fit.alpha.breakpoint_identifiable[n]) continue;
@@ -261,7 +313,7 @@ TEST(ParameterRecovery, CoulombFrictionIsModelErrorTheTorqueConstantStillRecover
   // β̃·4Fc/(π ω A0) (describing function) that depends on the velocity amplitude, not on α: the
   // α-model absorbs it where it can, so C(α) is NOT expected within 5 % of the plant's α-model
   // (10-20 % at the highest α, where C is smallest). β̃ is unaffected, and the local points read
-  // the effective damping the data carry.
+  // the effective damping the data carry. (The fit told Fc: KnownCoulombFriction… below.)
   const ExperimentPlan plan = make_experiment_plan(other_truth_options(12, true));
   const GeneratedDataset g = generate_dataset(plan);
   const DatasetFit fit = fit_dataset(g.index, g.runs, fast_options());
@@ -271,6 +323,75 @@ TEST(ParameterRecovery, CoulombFrictionIsModelErrorTheTorqueConstantStillRecover
   EXPECT_LT(rec.bt_max_rel, 0.05);
   EXPECT_GT(rec.c_max_rel, 0.05);  // the model error is real: if this fails, revisit the notes
   EXPECT_NEAR(rec.c0_fit, rec.c0_ref_scaled, 0.08 * rec.c0_ref_scaled);
+}
+
+TEST(ParameterRecovery, KnownCoulombFrictionWithinFivePercentExceptAroundAlphaOne) {
+  // Issue #4 with the Coulomb friction of the test above, now known to the fit
+  // (FitPipelineOptions::effects: the plant's Fc and ε): the local points are read against the
+  // plant input v + n(θ, θ̇) (effect_sine_point.hpp), which takes the friction's describing
+  // function out of C_data. Measured (seed 12; seeds 5 and 6 alike): C(α) within 0.5 % for α ≥ 2
+  // (17 % off with the friction unknown), 1.7 % for α < 0.5, β̃ 0.5 %, C̄0 0.1 %.
+  //
+  // NOT within 5 % for 0.5 ≤ α < 2: 13 % there. Those are the 2 Hz runs at α_data ≈ 0.75-1.4 on
+  // the steepest stretch of C(α) (C_n1 11 → 19 over α 0 … 1.5). The friction puts harmonics into
+  // v, and the plant's α̂ = ẇ² − w·ẅ of the filtered command swings within each period (0.71 …
+  // 1.50 around 1.12 at 30°/65°), so C(α̂(t))·θ̇ has a fundamental that is not C(α_data)·θ̇₁: the
+  // points read C 10-14 % low and β̃ 6-7 % low there (noise-free data alike; the truth columns
+  // give the same in-phase and quadrature parts). A describing function of the input alone
+  // cannot undo this modulation of the plant's own coefficients; ALPHAINV_SHOW_POINTS=1 prints
+  // the points.
+  const ExperimentPlan plan = make_experiment_plan(other_truth_options(12, true));
+  const GeneratedDataset g = generate_dataset(plan);
+  FitPipelineOptions o = fast_options();
+  o.effects.coulomb_v = plan.options.plant.effects.coulomb_v;
+  o.effects.coulomb_smoothing_rad_s = plan.options.plant.effects.coulomb_smoothing_rad_s;
+  ASSERT_GT(o.effects.coulomb_v, 0.0);
+  const DatasetFit fit = fit_dataset(g.index, g.runs, o);
+  ASSERT_TRUE(fit.has_inertia_model && fit.alpha.ok);
+  EXPECT_EQ(fit.effects.coulomb_v, o.effects.coulomb_v);
+  EXPECT_EQ(fit.model_for_pose(0).effects.coulomb_v, o.effects.coulomb_v);
+  const Recovery rec = compare(plan, fit);
+  print_recovery("other truth, seed 12, Coulomb friction known", fit, rec, plan);
+  print_points(plan, fit);
+  const Recovery unknown = compare(plan, fit_dataset(g.index, g.runs, fast_options()));
+  std::printf("      C(a) max err by alpha: <0.5 %.2f %%, 0.5-2 %.2f %%, >=2 %.2f %% (friction "
+              "unknown: %.2f %%, %.2f %%, %.2f %%)\n",
+              100 * c_max_rel_between(rec, 0.0, 0.5), 100 * c_max_rel_between(rec, 0.5, 2.0),
+              100 * c_max_rel_between(rec, 2.0, INFINITY),
+              100 * c_max_rel_between(unknown, 0.0, 0.5),
+              100 * c_max_rel_between(unknown, 0.5, 2.0),
+              100 * c_max_rel_between(unknown, 2.0, INFINITY));
+  EXPECT_LT(rec.bt_max_rel, 0.05);
+  EXPECT_NEAR(rec.c0_fit, rec.c0_ref_scaled, 0.05 * rec.c0_ref_scaled);
+  expect_inertia_recovered(plan, fit);
+  EXPECT_LT(c_max_rel_between(rec, 0.0, 0.5), 0.05);
+  EXPECT_LT(c_max_rel_between(rec, 2.0, INFINITY), 0.05);
+  EXPECT_LT(c_max_rel_between(rec, 2.0, INFINITY),
+            0.1 * c_max_rel_between(unknown, 2.0, INFINITY));
+  // The gap named above; if this fails, the modulation is handled: tighten to 5 % everywhere.
+  EXPECT_GT(rec.c_max_rel, 0.05);
+  EXPECT_LT(rec.c_max_rel, 0.15);
+}
+
+TEST(ParameterRecovery, BundledSetWithKnownCoulombFrictionWithinFivePercent) {
+  // The bundled set's plant (paper truth, seed 1: data/omni_yaw_sim bit for bit) with its Coulomb
+  // friction known to the fit. Measured: C(α) 2.5 % (18.3 % unknown), β̃ 0.44 % (1.85 %), C̄0
+  // 0.13 % (4.8 %), the inertia parameters within 0.2 % up to the common scale. The paper's C(α)
+  // is shallower at small α than other_truth_options'; its α̂ swings leave 2.4 % at the 2 Hz runs.
+  const ExperimentPlan plan = paper_experiment_plan(1);
+  const GeneratedDataset g = generate_dataset(plan);
+  FitPipelineOptions o = fast_options();
+  o.effects = plan.options.plant.effects;
+  ASSERT_GT(o.effects.coulomb_v, 0.0);
+  const DatasetFit fit = fit_dataset(g.index, g.runs, o);
+  ASSERT_TRUE(fit.has_inertia_model && fit.alpha.ok);
+  const Recovery rec = compare(plan, fit);
+  print_recovery("paper truth, seed 1 (bundled set), Coulomb friction known", fit, rec, plan);
+  print_points(plan, fit);
+  EXPECT_LT(rec.c_max_rel, 0.05);
+  EXPECT_LT(rec.bt_max_rel, 0.05);
+  EXPECT_NEAR(rec.c0_fit, rec.c0_ref_scaled, 0.05 * rec.c0_ref_scaled);
+  expect_inertia_recovered(plan, fit);
 }
 
 // Exploration table for the report: several seeds and truths, with and without the digital-loop
@@ -301,15 +422,19 @@ TEST(ParameterRecovery, DISABLED_Table) {
   for (const auto& c : cases) {
     const ExperimentPlan plan = make_experiment_plan(c.options);
     const GeneratedDataset g = generate_dataset(plan);
-    for (int mode = 0; mode < 4; ++mode) {
+    // Mode 4: mode 3 with the plant's effects known to the fit (FitPipelineOptions::effects).
+    const bool has_effects = !active_effects(plan.options.plant.effects).empty();
+    for (int mode = 0; mode < (has_effects ? 5 : 4); ++mode) {
       FitPipelineOptions o = fast_options();
       o.loop_period_s = mode == 0 ? 0.0 : std::nan("");
       o.refine_breakpoints = mode >= 2;
       o.alpha_consistent_inertia = mode >= 3;
+      if (mode == 4) o.effects = plan.options.plant.effects;
       const DatasetFit fit = fit_dataset(g.index, g.runs, o);
       const Recovery rec = compare(plan, fit);
       const char* modes[] = {"before: (19)-(20), grid", "ZOH-corrected, grid",
-                             "ZOH-corrected, grid+NM", "ZOH, grid+NM, alpha-consistent I"};
+                             "ZOH-corrected, grid+NM", "ZOH, grid+NM, alpha-consistent I",
+                             "ZOH, grid+NM, alpha-consistent I, effects known"};
       const std::string label =
           std::string(c.name) + ", seed " + std::to_string(c.options.seed) + ", " + modes[mode];
       print_recovery(label.c_str(), fit, rec, plan);

@@ -1,7 +1,9 @@
 #include "fit_command.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -51,12 +53,20 @@ std::string pose_label(const PoseFit& p) {
   return fmt(*p.gamma1_deg, "%.2f") + "° / " + fmt(*p.gamma2_deg, "%.2f") + "°";
 }
 
-std::string make_report(const Dataset& ds, const DatasetFit& fit, const ModelFile& model) {
+/// `effects_source`: where the known effects came from (for the report), empty without them.
+std::string make_report(const Dataset& ds, const DatasetFit& fit, const ModelFile& model,
+                        const std::string& effects_source) {
   std::ostringstream r;
   r << "# omni_fit report\n\n";
   r << "Dataset: `" << ds.dir.string() << "` (" << ds.runs.size() << " runs, " << fit.poses.size()
     << " poses, position unit " << ds.position_unit << ", command unit " << ds.command_unit
     << "), hash " << model.dataset_hash << ".\n\n";
+  if (!active_effects(fit.effects).empty()) {
+    r << "**Fitted with known effects** (" << effects_source << "): " << effects_text(fit.effects)
+      << ". The local points of the sine runs were corrected for them (C_data, β_data against the "
+         "plant input through the effects), the validation simulations include them, and "
+         "model.json carries them.\n\n";
+  }
   if (!fit.notes.empty()) {
     r << "## What the data could and could not support\n\n";
     for (const auto& n : fit.notes) r << "- " << n << "\n";
@@ -157,7 +167,77 @@ std::string make_report(const Dataset& ds, const DatasetFit& fit, const ModelFil
   return r.str();
 }
 
+/// Reads the known effects of --effects-from and --effect into `effects` and says where they came
+/// from in `source`. Throws alphainv::Error naming the file or the option.
+void read_known_effects(const FitCommandOptions& opt, Effects& effects, std::string& source) {
+  if (!opt.effects_from.empty()) {
+    ModelFile from;
+    try {
+      from = read_model_file(opt.effects_from);
+    } catch (const Error& e) {  // its message names the file (and the key)
+      throw Error(e.what(), {}, 0, "--effects-from");
+    }
+    if (active_effects(from.effects).empty()) {
+      throw Error(opt.effects_from + " has no effects (its \"effects\" list is empty or absent); "
+                  "`omni_fit diagnose` writes a model.json that has",
+                  {}, 0, "--effects-from");
+    }
+    effects = from.effects;
+    source = "from `" + opt.effects_from + "`";
+  }
+  for (const std::string& spec : opt.effect_specs) {
+    apply_effect_option(spec, effects);
+    source += std::string(source.empty() ? "" : ", ") + "`--effect " + spec + "`";
+  }
+}
+
 }  // namespace
+
+void apply_effect_option(const std::string& spec, Effects& effects) {
+  const std::string option = "--effect " + spec;
+  const std::size_t colon = spec.find(':');
+  if (colon == std::string::npos) {
+    throw Error("expected NAME:PARAM=VALUE[,PARAM=VALUE], e.g. coulomb_friction:coulomb_v=0.004", {},
+                0, option);
+  }
+  const EffectKind kind = effect_kind_from_name(spec.substr(0, colon), option);
+  const std::vector<EffectParameter> known = effect_parameters(kind, true);
+  std::string names;
+  for (const EffectParameter& p : known) names += std::string(names.empty() ? "" : ", ") + p.name;
+  if (kind == EffectKind::kNone) throw Error("\"none\" is not an effect to fit with", {}, 0, option);
+  Effects one;  // this effect's values on defaults: validate_effects can only object to them
+  std::size_t start = colon + 1;
+  bool any = false;
+  while (start <= spec.size()) {
+    const std::size_t end = std::min(spec.find(',', start), spec.size());
+    const std::string item = spec.substr(start, end - start);
+    const std::size_t eq = item.find('=');
+    const std::string key = item.substr(0, eq);
+    const EffectParameter* param = nullptr;
+    for (const EffectParameter& p : known) {
+      if (key == p.name) param = &p;
+    }
+    if (eq == std::string::npos || param == nullptr) {
+      throw Error("expected PARAM=VALUE with PARAM one of " + names + ", found \"" + item + "\"", {},
+                  0, option);
+    }
+    const std::string text = item.substr(eq + 1);
+    char* rest = nullptr;
+    const double x = std::strtod(text.c_str(), &rest);
+    if (text.empty() || rest == nullptr || *rest != '\0') {
+      throw Error("expected a number for " + key + ", found \"" + text + "\"", {}, 0, option);
+    }
+    one.*(param->member) = x;
+    any = true;
+    start = end + 1;
+  }
+  if (!any) throw Error("no parameter given", {}, 0, option);
+  validate_effects(one, "--effect " + spec.substr(0, colon) + ":");
+  if (!effect_active(one, kind)) {
+    throw Error("these values leave " + std::string(effect_name(kind)) + " off", {}, 0, option);
+  }
+  for (const EffectParameter& p : known) effects.*(p.member) = one.*(p.member);
+}
 
 ModelFile make_model_file(const Dataset& ds, const DatasetFit& fit) {
   ModelFile model;
@@ -184,6 +264,7 @@ ModelFile make_model_file(const Dataset& ds, const DatasetFit& fit) {
     model.c_n1_se = fit.alpha.c_n1_se;
     model.beta_n1_se = fit.alpha.beta_n1_se;
   }
+  model.effects = fit.effects;  // the known effects the model was fitted with
   model.loop_period_s = fit.simulation.loop_period_s;  // the simulation the model was identified with
   model.notes = fit.notes;
   return model;
@@ -196,7 +277,10 @@ int run_fit(const FitCommandOptions& opt) {
   auto show = [&progress](std::string_view stage, std::size_t done, std::size_t total) {
     progress.update(stage, done, total);
   };
+  FitPipelineOptions popt;
+  std::string effects_source;
   try {
+    read_known_effects(opt, popt.effects, effects_source);
     ds = read_dataset_index(opt.dataset_dir);
     for (std::size_t i = 0; i < ds.runs.size(); ++i) {
       show("loading runs", i, ds.runs.size());
@@ -207,7 +291,6 @@ int run_fit(const FitCommandOptions& opt) {
     std::fprintf(stderr, "omni_fit fit: %s\n", e.what());
     return 2;
   }
-  FitPipelineOptions popt;
   if (progress.enabled()) popt.progress = show;
   popt.threads = opt.threads;
   popt.n_breakpoints = opt.n_breakpoints;
@@ -236,7 +319,7 @@ int run_fit(const FitCommandOptions& opt) {
     if (!plot_warning.empty() && !opt.quiet) {
       std::fprintf(stderr, "omni_fit fit: %s\n", plot_warning.c_str());
     }
-    write_text_atomic(out / "report.md", make_report(ds, fit, model) + figures);
+    write_text_atomic(out / "report.md", make_report(ds, fit, model, effects_source) + figures);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "omni_fit fit: writing %s: %s\n", out.string().c_str(), e.what());
     return 2;

@@ -1,5 +1,6 @@
 #pragma once
 #include <string>
+#include <vector>
 
 #include "alphainv/dataset.hpp"
 #include "alphainv/fit_pipeline.hpp"
@@ -15,7 +16,17 @@ struct FitCommandOptions {
   bool no_plots = false;  ///< skip the report's figures (no data, scripts or PNGs)
   unsigned threads = 0;
   std::size_t n_breakpoints = 4;
+  /// --effects-from: a model.json whose `effects` the fit takes as known (empty: none).
+  std::string effects_from;
+  /// --effect NAME:PARAM=VALUE[,PARAM=VALUE]: known effects, applied after --effects-from.
+  std::vector<std::string> effect_specs;
 };
+
+/// Sets the effect one `--effect NAME:PARAM=VALUE[,PARAM=VALUE]` names in `effects`: NAME a
+/// catalogue name (effect_kind_from_name), PARAM one of effect_parameters(kind, true); parameters
+/// not given keep their defaults. Throws alphainv::Error naming the option (field "--effect …")
+/// on bad syntax, names or values (validate_effects), or a spec that leaves the effect off.
+void apply_effect_option(const std::string& spec, alphainv::Effects& effects);
 
 /// `omni_fit fit`: returns the process exit code (0 ok, 2 bad input, 3 fit failure).
 int run_fit(const FitCommandOptions& options);

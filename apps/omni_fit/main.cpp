@@ -96,6 +96,21 @@ int main(int argc, char** argv) {
   fitc->add_option("--threads", fo.threads, "threads for the validation runs (default: all cores)");
   fitc->add_option("--breakpoints", fo.n_breakpoints, "number of alpha breakpoints N (2..8)")
       ->capture_default_str()->check(CLI::Range(2, 8));
+  fitc->add_option("--effects-from", fo.effects_from,
+                   "fit with the known effects of this model.json (its \"effects\", e.g. from "
+                   "`omni_fit diagnose`): the sine points are corrected for them, the simulations "
+                   "include them, the written model carries them");
+  fitc->add_option("--effect", fo.effect_specs,
+                   "a known effect NAME:PARAM=VALUE[,PARAM=VALUE], repeatable, after "
+                   "--effects-from; e.g. coulomb_friction:coulomb_v=0.004 (names: coulomb_friction, "
+                   "offset_torque, gravity, cogging, time_delay, saturation, deadzone; parameters "
+                   "as in model.json)")
+      ->allow_extra_args(false);
+  fitc->footer("Examples:\n  omni_fit fit data/omni_yaw_sim -o out/fit --json\n"
+               "  omni_fit fit data/omni_yaw_sim -o out/fit-fx --effect coulomb_friction:coulomb_v=0.004\n"
+               "  omni_fit fit run_dir -o out/fit-fx --effects-from out/diag/model.json\n"
+               "Exit codes: 0 ok, 1 usage, 2 bad input (the message names the file or option), 3 "
+               "nothing could be fitted.");
   omni_fit::SimulateCommandOptions so;
   CLI::App* simc = omni_fit::add_simulate_subcommand(app, so);
   omni_fit::DiagnoseCommandOptions dgo;
@@ -103,6 +118,8 @@ int main(int argc, char** argv) {
   omni_fit::SweepCommandOptions swo;
   CLI::App* sweepc = omni_fit::add_sweep_subcommand(app, swo);
   app.footer("Examples:\n  omni_fit fit data/omni_yaw_sim -o out/fit --json\n"
+             "  omni_fit fit data/omni_yaw_sim -o out/fit-fx --effect coulomb_friction:coulomb_v=0.004\n"
+             "  omni_fit fit data/omni_yaw_sim -o out/fit-fx --effects-from out/diag/model.json\n"
              "  omni_fit simulate out/fit/model.json --pose 60.08,87 --sine 3Hz -o run.csv\n"
              "  omni_fit diagnose data/omni_yaw_sim -o out/diag --json\n"
              "  omni_fit demo --gamma1 60.08 --gamma2 87 --amplitude 0.07\n"

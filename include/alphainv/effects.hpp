@@ -93,14 +93,19 @@ struct EffectParameter {
 };
 
 /// The parameters an effect of `kind` adds to the model (empty for kNone). The smoothing ε of the
-/// Coulomb term is a modelling choice, not a fitted parameter, and is not listed.
-std::vector<EffectParameter> effect_parameters(EffectKind kind);
+/// Coulomb term is a modelling choice, not a fitted parameter, and is listed (last) only with
+/// `with_modelling_choices` (what a model file stores and a simulation needs).
+std::vector<EffectParameter> effect_parameters(EffectKind kind, bool with_modelling_choices = false);
 
 /// Whether `e` has the effect of `kind` switched on.
 bool effect_active(const Effects& e, EffectKind kind) noexcept;
 
 /// The kinds switched on in `e`, in catalogue order.
 std::vector<EffectKind> active_effects(const Effects& e);
+
+/// The active effects with their parameters (modelling choices included), e.g.
+/// "coulomb_friction (coulomb_v = 0.004, coulomb_smoothing_rad_s = 0.001)"; "none" when all are off.
+std::string effects_text(const Effects& e);
 
 /// Throws alphainv::Error naming the field (prefix + member, e.g. "effects.coulomb_v") when a value
 /// is out of range.

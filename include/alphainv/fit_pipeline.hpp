@@ -4,7 +4,8 @@
 /// simulation (section 2.4): local linear points per sine run, the global linear model per pose,
 /// the inertia model across poses, the α-invariant model, and Table 8 / Table 11 style errors of the
 /// linear and the α-model. Offline; never throws on what the data cannot support: it says so in
-/// `notes` and leaves the affected parts empty. Throws alphainv::Error only for unreadable input.
+/// `notes` and leaves the affected parts empty. Throws alphainv::Error only for unreadable input
+/// and for known effects out of range (FitPipelineOptions::effects).
 
 #include <cstddef>
 #include <functional>
@@ -17,6 +18,7 @@
 #include "alphainv/alpha_fit.hpp"
 #include "alphainv/controller.hpp"
 #include "alphainv/dataset.hpp"
+#include "alphainv/effects.hpp"
 #include "alphainv/identify.hpp"
 #include "alphainv/inertia_fit.hpp"
 #include "alphainv/metrics.hpp"
@@ -49,6 +51,15 @@ struct FitPipelineOptions {
   /// Re-identify the inertia model so that it is consistent with the α-model (see fit_dataset's
   /// notes); false: the paper's inertia model from the global linear fits alone.
   bool alpha_consistent_inertia = true;
+  /// Known effects of the plant beyond the model (effects.hpp; e.g. from `omni_fit diagnose`),
+  /// all off by default. When any is on, the local point of each sine run is read against the
+  /// plant input through them (sine_point_with_effects(), effect_sine_point.hpp) instead of the
+  /// command, over the same steady-state window, and every simulation (validation, time-domain
+  /// fit) includes them. All off: the fit is the one without this option, bit for bit. Limit:
+  /// the correction is a describing function of the effects' input; harmonics they put into the
+  /// command also make the plant's α̂ swing within a period, which biases points on a steep
+  /// stretch of C(α) (tests/test_parameter_recovery.cpp).
+  Effects effects;
 };
 
 /// One sine run's local identification.
@@ -115,10 +126,13 @@ struct DatasetFit {
   /// The simulation the validation (and a time-domain fit) used: the continuous law (43), or the
   /// digital loop at the dataset's sample period (loop_period_s > 0).
   SimulationOptions simulation;
+  /// The known effects the fit assumed (FitPipelineOptions::effects); model_for_pose() carries
+  /// them into the simulations.
+  Effects effects;
   std::vector<RunValidation> validation;
   std::vector<std::string> notes;  ///< what could not be done, and why; choices made
   ModelErrors linear_errors, alpha_errors;  ///< medians over poses of the per-pose figures
-  /// The model at a run's pose, for simulation (linear and α parts).
+  /// The model at a run's pose, for simulation (linear and α parts, and `effects`).
   JointModelAtPose model_for_pose(std::size_t pose) const;
 };
 

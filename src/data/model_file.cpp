@@ -56,11 +56,7 @@ std::array<double, N> get_array(const json& obj, const char* key, std::size_t n,
 /// The parameters model.json stores for an effect of `kind`: effect_parameters(kind), and the
 /// Coulomb smoothing ε with the Coulomb friction (a modelling choice the simulation needs).
 std::vector<EffectParameter> stored_effect_parameters(EffectKind kind) {
-  std::vector<EffectParameter> params = effect_parameters(kind);
-  if (kind == EffectKind::kCoulombFriction) {
-    params.push_back({"coulomb_smoothing_rad_s", &Effects::coulomb_smoothing_rad_s, "position unit/s"});
-  }
-  return params;
+  return effect_parameters(kind, /*with_modelling_choices=*/true);
 }
 
 json format_effects(const Effects& e) {

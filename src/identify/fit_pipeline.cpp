@@ -9,6 +9,7 @@
 #include <mutex>
 #include <thread>
 
+#include "alphainv/effect_sine_point.hpp"
 #include "alphainv/metrics.hpp"
 #include "alphainv/output_error.hpp"
 #include "alphainv/reference.hpp"
@@ -245,11 +246,13 @@ JointModelAtPose DatasetFit::model_for_pose(std::size_t pose) const {
   }
   m.alpha = alpha.model;
   m.use_alpha = alpha.ok;
+  m.effects = effects;
   return m;
 }
 
 DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
                        const FitPipelineOptions& options) {
+  validate_effects(options.effects, "FitPipelineOptions::effects.");
   DatasetFit fit;
   const std::size_t n_runs = dataset.runs.size();
   std::mutex progress_mutex;
@@ -301,6 +304,16 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
                 "(which read C low by about ω²T/2)"
           : "continuous loop assumed (no sample rate given or correction off): C_data, β_data by "
             "eqs. (19)-(20) as printed");
+  fit.effects = options.effects;
+  const bool known_effects = !active_effects(fit.effects).empty();
+  if (known_effects) {
+    fit.notes.push_back(
+        "known effects: " + effects_text(fit.effects) +
+        ". The sine runs' local points were corrected for them: C_data, β_data read θ against the "
+        "plant input S(Z(v(t − τ))) + n(θ, θ̇) (describing function of the fundamental, "
+        "effect_sine_point.hpp) instead of against the command; the α_data are the command's "
+        "(36). Every simulation (validation, time-domain fit) includes these effects");
+  }
   std::size_t off_rate_runs = 0;
   std::vector<std::vector<LocalLinearPoint>> pose_points(fit.poses.size());
   std::size_t skipped_controller = 0;
@@ -335,8 +348,12 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
       const double dt_s = (d.t.back() - d.t.front()) / static_cast<double>(d.t.size() - 1);
       if (std::abs(dt_s / fit.loop_period_s - 1.0) > 0.01) ++off_rate_runs;
     }
-    sp.point = local_linear_point(f, a0 * std::sin(phi), a0 * std::cos(phi), ar, ctl.kp,
-                                  fit.loop_period_s);
+    // Known effects: the point against the plant input through them (effect_sine_point.hpp);
+    // gain and phase stay those of θ against r.
+    sp.point = known_effects ? sine_point_with_effects(d, win, f, ctl.kp, fit.loop_period_s,
+                                                       fit.effects)
+                             : local_linear_point(f, a0 * std::sin(phi), a0 * std::cos(phi), ar,
+                                                  ctl.kp, fit.loop_period_s);
     sp.gain = a0 / ar;
     sp.phase_deg = rad_to_deg(phi);
     fit.sine_points.push_back(sp);

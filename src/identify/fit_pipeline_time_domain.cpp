@@ -22,6 +22,7 @@ void add_time_domain_fit(const Dataset& dataset, const std::vector<RunData>& dat
   to.n_breakpoints = options.n_breakpoints;
   to.threads = options.threads;
   to.simulation = fit.simulation;
+  to.effects = fit.effects;  // known effects, kept fixed
   std::vector<TimeDomainRun> all_runs;
   std::size_t torque_off = 0, not_p = 0;
   for (std::size_t p = 0; p < fit.poses.size(); ++p) {

@@ -35,10 +35,14 @@ EffectKind effect_kind_from_name(std::string_view name, const std::string& field
               field);
 }
 
-std::vector<EffectParameter> effect_parameters(EffectKind kind) {
+std::vector<EffectParameter> effect_parameters(EffectKind kind, bool with_modelling_choices) {
   switch (kind) {
     case EffectKind::kNone: return {};
     case EffectKind::kCoulombFriction:
+      if (with_modelling_choices) {
+        return {{"coulomb_v", &Effects::coulomb_v, "command unit"},
+                {"coulomb_smoothing_rad_s", &Effects::coulomb_smoothing_rad_s, "position unit/s"}};
+      }
       return {{"coulomb_v", &Effects::coulomb_v, "command unit"}};
     case EffectKind::kOffsetTorque: return {{"offset_v", &Effects::offset_v, "command unit"}};
     case EffectKind::kGravity:
@@ -76,6 +80,18 @@ std::vector<EffectKind> active_effects(const Effects& e) {
     if (effect_active(e, k)) out.push_back(k);
   }
   return out;
+}
+
+std::string effects_text(const Effects& e) {
+  std::string text;
+  for (EffectKind kind : active_effects(e)) {
+    std::string params;
+    for (const EffectParameter& p : effect_parameters(kind, true)) {
+      params += (params.empty() ? "" : ", ") + std::string(p.name) + " = " + num(e.*p.member);
+    }
+    text += (text.empty() ? "" : "; ") + std::string(effect_name(kind)) + " (" + params + ")";
+  }
+  return text.empty() ? "none" : text;
 }
 
 void validate_effects(const Effects& e, const std::string& prefix) {
