@@ -158,6 +158,33 @@ TEST(AlphaFit, NelderMeadRefinementMovesBreakpointsOffTheGridTowardsTheTruth) {
   }
 }
 
+TEST(AlphaFit, RunnersUpAreTheNextBestGridSetsInOrder) {
+  // keep_runners_up: the grid's next best breakpoint sets after the winner, best first, each one
+  // scoring no better than the winner, and distinct from it and from each other.
+  const auto poses = paper_poses(paper_alpha_model());
+  AlphaFitOptions o;
+  o.refine = false;
+  o.keep_runners_up = 5;
+  const AlphaFitResult r = fit_alpha_model(poses, o);
+  ASSERT_TRUE(r.ok);
+  ASSERT_EQ(r.runners_up.size(), 5u);
+  double previous = r.score;
+  std::vector<std::vector<double>> seen{
+      std::vector<double>(r.model.alpha.begin(), r.model.alpha.begin() + 4)};
+  for (const auto& bp : r.runners_up) {
+    ASSERT_EQ(bp.size(), 4u);
+    EXPECT_EQ(bp[0], 0.0);
+    const AlphaFitResult at = fit_alpha_model_at(poses, bp, o);
+    ASSERT_TRUE(at.ok);
+    EXPECT_GE(at.score, previous);
+    previous = at.score;
+    EXPECT_EQ(std::find(seen.begin(), seen.end(), bp), seen.end());
+    seen.push_back(bp);
+  }
+  // Off by default.
+  EXPECT_TRUE(fit_alpha_model(poses, AlphaFitOptions{}).runners_up.empty());
+}
+
 TEST(AlphaFit, BreakpointsAndCoefficientsBeyondTheDataAreFlaggedNotIdentifiable) {
   // The paper's α3 = 250 lies above every α of the ±0.07 rad sweep (≈ 150 at most): neither it nor
   // C_31 nor β̃ at ᾱ1 = 250 is measured; α1 = 2.2 and α2 = 25 have data on both sides.

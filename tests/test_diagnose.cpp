@@ -55,18 +55,46 @@ GeneratedDataset one_pose_dataset(const Effects& hidden, std::uint64_t seed) {
   return generate_dataset(make_experiment_plan(plan));
 }
 
+/// diagnose_dataset() on one_pose_dataset(hidden, seed): it must name `expected` alone and cut
+/// the gap by 30 % or more.
+DiagnoseResult expect_named(const Effects& hidden, std::uint64_t seed, EffectKind expected) {
+  const GeneratedDataset g = one_pose_dataset(hidden, seed);
+  const DiagnoseResult r = diagnose_dataset(g.index, g.runs, DiagnoseOptions{});
+  EXPECT_TRUE(r.ok) << r.message;
+  EXPECT_EQ(r.effects_named.size(), 1u);
+  EXPECT_EQ(r.effects_named.empty() ? EffectKind::kNone : r.effects_named[0], expected);
+  EXPECT_LT(r.error_after, 0.7 * r.error_before);  // the gap shrinks by 30 % or more
+  return r;
+}
+
 TEST(DiagnoseSweep, NamesADeadzoneAndCutsTheGap) {
   Effects hidden;
   hidden.deadzone_v = 0.01;
-  const GeneratedDataset g = one_pose_dataset(hidden, 3);
-  DiagnoseOptions o;
-  const DiagnoseResult r = diagnose_dataset(g.index, g.runs, o);
-  ASSERT_TRUE(r.ok) << r.message;
-  ASSERT_EQ(r.effects_named.size(), 1u);
-  EXPECT_EQ(r.effects_named[0], EffectKind::kDeadzone);
-  EXPECT_LT(r.error_after, 0.7 * r.error_before);  // the gap shrinks by 30 % or more
+  const DiagnoseResult r = expect_named(hidden, 3, EffectKind::kDeadzone);
   EXPECT_NEAR(r.effects.deadzone_v, 0.01, 0.3 * 0.01);
+  ASSERT_FALSE(r.rounds.empty());
   EXPECT_EQ(r.rounds.front().candidates.size(), kAllEffectKinds.size());
+}
+
+TEST(DiagnoseSweep, NamesAGravitySpringTheFittedModelHadAbsorbed) {
+  // The smaller magnitude of the sweep, at another pose and seed: the α-model fitted from the
+  // sine runs absorbs the spring (C and β̃ shift with ω), so only the search with the α-model
+  // re-identified finds it.
+  Effects hidden;
+  hidden.gravity_v = 0.15;
+  const DiagnoseResult r = expect_named(hidden, 5, EffectKind::kGravity);
+  // The spring's stiffness g·cos θ0 (θ0 is 0 in the plant; over ±0.07 rad an offset g·sin θ0
+  // is what θ0 adds).
+  EXPECT_NEAR(r.effects.gravity_v * std::cos(r.effects.gravity_theta0_rad), 0.15, 0.15 * 0.15);
+  EXPECT_TRUE(r.alpha.has_value());  // the model was re-identified with the spring
+}
+
+TEST(DiagnoseSweep, NamesATimeDelay) {
+  Effects hidden;
+  hidden.delay_s = 0.002;
+  const DiagnoseResult r = expect_named(hidden, 7, EffectKind::kTimeDelay);
+  // The delay trades off against the coefficient factors (both shift the phase): within 50 %.
+  EXPECT_NEAR(r.effects.delay_s, 0.002, 0.5 * 0.002);
 }
 
 TEST(DiagnoseSweep, SaysNoneOnEffectFreeData) {

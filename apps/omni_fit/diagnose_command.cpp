@@ -52,6 +52,7 @@ std::string parameters_text(const Effects& e, EffectKind kind) {
 /// The model file with the diagnosed effects and coefficient factors folded in.
 void apply_to_model(ModelFile& m, const DiagnoseResult& r) {
   m.effects = r.effects;
+  if (m.has_alpha_model && r.alpha) m.alpha = *r.alpha;  // re-identified with the effects
   if (m.has_alpha_model) {
     auto f = [](const std::vector<double>& v, std::size_t k) {
       return v.empty() ? 1.0 : v[std::min(k, v.size() - 1)];
@@ -63,7 +64,7 @@ void apply_to_model(ModelFile& m, const DiagnoseResult& r) {
   std::string names;
   for (EffectKind k : r.effects_named) names += (names.empty() ? "" : ", ") + std::string(effect_name(k));
   m.notes.push_back("omni_fit diagnose added: " + (names.empty() ? std::string("nothing (none)") : names) +
-                    "; the α-model's C_n and β̃ were refitted with it (factors applied to C_n1, β̃_n1)");
+                    "; the α-model was " + (r.alpha ? std::string("re-identified from the sine runs with the effects in the plant input, then its ") : std::string("kept; its ")) + "C_n and β̃ were refitted with it by output error (factors applied to C_n1, β̃_n1)");
 }
 
 /// Residual figures: θ − θ_sim before and after for the worst runs (at most 3).
@@ -81,7 +82,7 @@ std::string residual_figures(const fs::path& out, const std::vector<DiagnoseRun>
             [&](std::size_t a, std::size_t b) { return r.before.run_rms[a] > r.before.run_rms[b]; });
   if (order.size() > 3) order.resize(3);
   const auto before = simulate_diagnosed(runs, effects_before, ModelScales{}, sim, 0);
-  const auto after = simulate_diagnosed(runs, r.effects, r.scales, sim, 0);
+  const auto after = simulate_diagnosed(runs, r.effects, r.scales, sim, 0, r.alpha);
   std::ostringstream md;
   md << "\n## Residual before and after\n\n";
   int n = 0;

@@ -18,7 +18,7 @@ struct DiagnoseCommandOptions {
   bool no_plots = false;
   std::size_t max_effects = 1;
   unsigned threads = 0;
-  std::size_t max_fit_runs = 10;
+  std::size_t max_fit_runs = 20;
 };
 
 /// Adds the `diagnose` subcommand to `app`; returns it.

@@ -37,6 +37,9 @@ struct AlphaFitOptions {
   /// identifiable (c_n1_identifiable / beta_n1_identifiable).
   double identifiable_relative_se = 0.1;
   double ridge = 1e-6;            ///< relative Tikhonov weight keeping empty segments determined
+  /// Keep this many runners-up of the grid search (AlphaFitResult::runners_up): breakpoint sets
+  /// that fit the points nearly as well can predict other runs quite differently.
+  std::size_t keep_runners_up = 0;
 };
 
 /// Result of fit_alpha_model().
@@ -55,6 +58,9 @@ struct AlphaFitResult {
   double grid_score = 0.0;           ///< c_rms_relative² + beta_rms_relative² of the grid winner
   double score = 0.0;                ///< the same for the returned model (≤ grid_score)
   bool refined = false;              ///< the local search moved the breakpoints
+  /// The next best breakpoint sets of the grid search after the winner's (α0 … α_{N−1}, best
+  /// first; at most AlphaFitOptions::keep_runners_up).
+  std::vector<std::vector<double>> runners_up;
   int refine_evaluations = 0;        ///< fit_alpha_model_at() calls of the refinement
   /// Range of α_data over the physical points used [command unit²/s²]: only there do the data
   /// say anything about C(α) and β̃(α).

@@ -6,13 +6,20 @@
 /// 1. Every run is simulated under its own controller with the model; the residual θ − θ_sim is
 ///    located per run, per frequency and over the state (velocity reversals, θ, |v|, α, time
 ///    after reference jumps) and the concentrations are said in words.
-/// 2. Each candidate effect is fitted by output error (output_error.hpp) together with two scale
-///    factors of the model (on C and on β̃), starting from an equation-error estimate (torque-like
-///    effects: the implied torque residual (θ̈ + C·θ̇)/β̃ − v regressed on the effect's terms) or a
-///    scan of the cost (delay, saturation, deadzone). `none` is the scale factors alone.
-/// 3. Each candidate is scored by 2-fold cross-validation over runs (fitted on half the runs,
-///    RMS error on the other half, and the other way round), so a bigger model does not win by
-///    default. The best candidate is named only when its cross-validated error is below
+/// 2. Each candidate effect is fitted together with the model. First its parameters are searched
+///    (a coarse scan of its main parameter on a grid scaled by the data, with an equation-error
+///    start for the torque-like effects, then Nelder-Mead, NLopt) with the α-model RE-IDENTIFIED at
+///    every value: the sine runs' local points taken with the candidate in the plant input
+///    (effect_sine_point.hpp) and the α-model fitted again to them (alpha_fit.hpp), since a model
+///    identified without the effect has absorbed it (a spring, a delay, friction shift C and β̃
+///    with frequency) and cannot be mended by adding the effect alone. Among the grid search's
+///    winner and runners-up, the breakpoint set that predicts the fit runs best is kept (`none`
+///    gets the same choice). Then output error (output_error.hpp) refines the effect together
+///    with factors on the model's coefficients (C_n, β̃ ends). Without an α-model or sine runs:
+///    output error from equation-error or scanned starts on the model as given.
+/// 3. Each candidate is scored by 2-fold cross-validation in time (fitted on the first half of
+///    every fit window, RMS error on the second half, and the other way round), so a bigger model
+///    does not win by default. The best candidate is named only when its cross-validated error is below
 ///    (1 − significance) times that of `none` in both folds, and its RMS over all samples of all
 ///    runs is below (1 − significance/2) times that of the model before; otherwise `none`. Candidates whose
 ///    fit on all fit runs is not below (1 − significance/2) times that of `none` cannot meet
@@ -61,7 +68,7 @@ struct DiagnoseOptions {
   std::size_t max_effects = 1;  ///< rounds: effects named at most
   unsigned threads = 0;         ///< simulations in parallel; 0: all cores
   SimulationOptions simulation; ///< continuous law or digital loop (loop_period_s > 0)
-  std::size_t max_fit_runs = 10;  ///< runs used to fit and score candidates (spread over kinds)
+  std::size_t max_fit_runs = 20;  ///< runs used to fit and score candidates (spread over kinds)
   std::size_t max_residuals_per_run = 800;  ///< output-error residual samples per run
   /// Candidates are fitted and scored on the last fit_window_s of each fit run (started from the
   /// measured state there), which keeps the steady state of sine runs and the last jump of square
@@ -71,6 +78,11 @@ struct DiagnoseOptions {
   /// `none` in both folds.
   double significance = 0.10;
   std::vector<EffectKind> candidates;  ///< empty: the whole catalogue
+  /// Search each candidate's parameters with the α-model's coefficients re-identified from the
+  /// sine runs' local points taken with the candidate in the plant input (effect_sine_point.hpp)
+  /// before the output-error fit; needs an α-model and sine runs under a P law. false: the
+  /// output-error fit alone, from equation-error or scanned starts.
+  bool reidentify = true;
 };
 
 /// One candidate of one round.
@@ -85,7 +97,14 @@ struct CandidateScore {
   std::array<double, 2> fold_scores{{std::numeric_limits<double>::infinity(),
                                      std::numeric_limits<double>::infinity()}};
   double error_after = std::numeric_limits<double>::quiet_NaN();  ///< RMS over all runs
+  /// RMS of the fit on all fit runs (fit windows) [position unit]
+  double training_rms = std::numeric_limits<double>::quiet_NaN();
   bool cross_validated = true;  ///< false: pruned, `score` is its training RMS
+  /// true: started from the search with the α-model re-identified (DiagnoseOptions::reidentify)
+  bool reidentified = false;
+  /// The α-model re-identified with the effects (replaces the runs' α-model; the scales apply to
+  /// it); nullopt: the runs' own.
+  std::optional<AlphaModel> alpha;
 };
 
 /// Where the residual concentrates.
@@ -107,6 +126,9 @@ struct ResidualLocation {
 struct DiagnoseRound {
   EffectKind named = EffectKind::kNone;
   std::vector<CandidateScore> candidates;  ///< in catalogue order
+  /// `none` refitted with the α-model at the winner's breakpoints (when the winner's α-model was
+  /// re-identified): the winner is named only if it beats this too.
+  std::optional<CandidateScore> none_at_winner_breakpoints;
   double error_before = std::numeric_limits<double>::quiet_NaN();
   double error_after = std::numeric_limits<double>::quiet_NaN();
 };
@@ -119,6 +141,9 @@ struct DiagnoseResult {
   std::vector<EffectKind> effects_named;  ///< in order
   Effects effects;                         ///< the final model's effects
   ModelScales scales;                      ///< the final model's coefficient factors
+  /// The final model's α-model when re-identified with its effects (replaces the runs' α-model
+  /// before the factors); nullopt: the runs' own.
+  std::optional<AlphaModel> alpha;
   ResidualLocation before, after;          ///< the residual of the model given and of the final one
   double error_before = std::numeric_limits<double>::quiet_NaN();  ///< RMS of θ − θ_sim, all runs
   double error_after = std::numeric_limits<double>::quiet_NaN();
@@ -129,9 +154,11 @@ struct DiagnoseResult {
 /// Runs the workflow (file comment).
 DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs, const DiagnoseOptions& options = {});
 
-/// The model `base` with the effects `e` and the coefficient factors applied.
+/// The model `base` with its α-model replaced by `alpha` (when given), then the effects `e` and
+/// the coefficient factors applied.
 JointModelAtPose diagnosed_model(const JointModelAtPose& base, const Effects& e,
-                                 const ModelScales& scales);
+                                 const ModelScales& scales,
+                                 const std::optional<AlphaModel>& alpha = std::nullopt);
 
 /// Simulates every run with its model changed by diagnosed_model(); returns the simulated θ of
 /// each (empty for a failed run).
@@ -139,7 +166,8 @@ std::vector<std::vector<double>> simulate_diagnosed(const std::vector<DiagnoseRu
                                                     const Effects& e,
                                                     const ModelScales& scales,
                                                     const SimulationOptions& simulation,
-                                                    unsigned threads = 0);
+                                                    unsigned threads = 0,
+                                                    const std::optional<AlphaModel>& alpha = std::nullopt);
 
 /// The runs of `dataset` with the models of `fit` (model_for_pose of each run's pose), each under
 /// its own controller; runs that switch the motor off (torque_enable = 0) are left out.

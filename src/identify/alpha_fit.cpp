@@ -289,6 +289,7 @@ AlphaFitResult fit_alpha_model(const std::vector<AlphaFitPose>& poses,
   std::vector<std::size_t> idx(n - 1);
   double best_score = std::numeric_limits<double>::infinity();
   std::size_t tried = 0;
+  std::vector<std::pair<double, std::vector<double>>> ranked;  // (score, breakpoints)
   std::function<void(std::size_t, std::size_t)> rec = [&](std::size_t depth, std::size_t start) {
     if (depth == n - 1) {
       std::vector<double> bp(n, 0.0);
@@ -297,6 +298,7 @@ AlphaFitResult fit_alpha_model(const std::vector<AlphaFitPose>& poses,
       AlphaFitResult r = fit_alpha_model_at(poses, bp, options);
       if (!r.ok) return;
       const double score = r.score;
+      if (options.keep_runners_up > 0) ranked.push_back({score, bp});
       if (score < best_score) {
         best_score = score;
         best = std::move(r);
@@ -310,6 +312,13 @@ AlphaFitResult fit_alpha_model(const std::vector<AlphaFitPose>& poses,
   };
   rec(0, 0);
   best.candidates_tried = tried;
+  if (options.keep_runners_up > 0 && ranked.size() > 1) {
+    const std::size_t keep = std::min(ranked.size() - 1, options.keep_runners_up);
+    std::partial_sort(ranked.begin(), ranked.begin() + static_cast<std::ptrdiff_t>(keep + 1),
+                      ranked.end(),
+                      [](const auto& a, const auto& b) { return a.first < b.first; });
+    for (std::size_t k = 1; k <= keep; ++k) best.runners_up.push_back(ranked[k].second);
+  }
   if (!best.ok && best.message == "no candidate breakpoints") best.message = "no breakpoint set gave a valid model";
   if (!best.ok) return best;
   best.grid_score = best.score;

@@ -9,7 +9,10 @@
 #include <thread>
 
 #include <Eigen/Dense>
+#include <nlopt.h>
 
+#include "alphainv/alpha_fit.hpp"
+#include "alphainv/effect_sine_point.hpp"
 #include "alphainv/output_error.hpp"
 #include "alphainv/reference.hpp"
 #include "alphainv/time_domain_fit.hpp"
@@ -21,6 +24,8 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kTwoPi = 6.283185307179586476925;
+/// Runners-up of the α-model's grid search tried by best_variant().
+constexpr std::size_t kAlphaVariants = 12;
 
 unsigned thread_count(unsigned requested, std::size_t jobs) {
   const unsigned hw = std::max(1u, std::thread::hardware_concurrency());
@@ -258,7 +263,8 @@ ParamBlock param_block(EffectKind kind, const Effects& e, const DataScales& sc) 
 OutputErrorProblem make_problem(const std::vector<DiagnoseRun>& runs,
                                 const std::vector<std::size_t>& which,
                                 const std::vector<ParamBlock>& blocks, const Effects& base,
-                                const ModelScales& start, const DiagnoseOptions& opt) {
+                                const ModelScales& start, const DiagnoseOptions& opt,
+                                const std::optional<AlphaModel>& alpha) {
   OutputErrorProblem pr;
   std::vector<const DiagnoseRun*> rs;
   for (std::size_t i : which) {
@@ -276,7 +282,7 @@ OutputErrorProblem make_problem(const std::vector<DiagnoseRun>& runs,
   pr.simulation = opt.simulation;
   pr.max_residuals_per_run = opt.max_residuals_per_run;
   const std::size_t nc = start.c.size(), nb = start.beta.size();
-  pr.model = [rs, blocks, base, nc, nb](const double* p, std::size_t i) {
+  pr.model = [rs, blocks, base, nc, nb, alpha](const double* p, std::size_t i) {
     Effects e = base;
     std::size_t at = nc + nb;
     for (const auto& b : blocks) {
@@ -285,7 +291,7 @@ OutputErrorProblem make_problem(const std::vector<DiagnoseRun>& runs,
     ModelScales sc;
     sc.c.assign(p, p + nc);
     sc.beta.assign(p + nc, p + nc + nb);
-    return diagnosed_model(rs[i]->model, e, sc);
+    return diagnosed_model(rs[i]->model, e, sc, alpha);
   };
   return pr;
 }
@@ -314,11 +320,13 @@ Effects effects_of(const std::vector<ParamBlock>& blocks, const Effects& base,
 /// Per-run RMS of the model (base effects `e`, scales) over `which` runs; NaN for failures.
 std::vector<double> run_rms_with(const std::vector<DiagnoseRun>& runs,
                                  const std::vector<std::size_t>& which, const Effects& e,
-                                 const ModelScales& ms, const DiagnoseOptions& opt) {
+                                 const ModelScales& ms, const DiagnoseOptions& opt,
+                                 const std::optional<AlphaModel>& alpha) {
   std::vector<double> out(runs.size(), kNaN);
   parallel_for(which.size(), opt.threads, [&](std::size_t j) {
     const std::size_t i = which[j];
-    const SimulationResult s = simulate_run(runs[i], diagnosed_model(runs[i].model, e, ms), opt.simulation);
+    const SimulationResult s =
+        simulate_run(runs[i], diagnosed_model(runs[i].model, e, ms, alpha), opt.simulation);
     out[i] = s.ok ? rms_of(*runs[i].data, s.theta) : kNaN;
   });
   return out;
@@ -328,17 +336,303 @@ std::vector<double> run_rms_with(const std::vector<DiagnoseRun>& runs,
 /// the lowest pooled RMS over the fit runs.
 double scan_start(const std::vector<DiagnoseRun>& runs, const std::vector<std::size_t>& fit_runs,
                   Effects e, double Effects::*member, const std::vector<double>& values,
-                  const ModelScales& ms, const DiagnoseOptions& opt) {
+                  const ModelScales& ms, const DiagnoseOptions& opt,
+                  const std::optional<AlphaModel>& alpha) {
   double best = values.front(), best_rms = kInf;
   for (double x : values) {
     e.*member = x;
-    const double r = pooled_rms(runs, run_rms_with(runs, fit_runs, e, ms, opt), fit_runs);
+    const double r = pooled_rms(runs, run_rms_with(runs, fit_runs, e, ms, opt, alpha), fit_runs);
     if (std::isfinite(r) && r < best_rms) {
       best_rms = r;
       best = x;
     }
   }
   return best;
+}
+
+/// Re-identification of the α-model with a candidate's effects in the plant input. The α-model is
+/// identified from the sine runs' steady states (section 2.3.5), which absorb an unmodelled effect
+/// (a spring shifts C and β̃ with ω, a delay adds phase, friction adds damping), breakpoints and
+/// all: a candidate added to that model would have to undo the distortion through a few
+/// coefficient factors, and misses. Here the local points are taken again with the plant input
+/// through the candidate's effects (effect_sine_point.hpp) and the α-model is fitted again
+/// (alpha_fit.hpp: breakpoints by the grid search, then the two-stage fit), with each pose's
+/// inertia as the runs' models have it, so the result replaces their α-model. Usable when the
+/// runs carry one α-model and sine runs under a P law at one kp.
+class Reidentifier {
+ public:
+  Reidentifier(const std::vector<DiagnoseRun>& runs, double sample_period_s)
+      : sample_period_s_(sample_period_s) {
+    if (runs.empty() || !runs.front().model.use_alpha) return;
+    const AlphaModel& a = runs.front().model.alpha;
+    options_.n_breakpoints = a.n_breakpoints;
+    // The grid search alone: its winner does not move with the small changes of the points a
+    // small effect makes, so the model is continuous in the effect's parameters there (the local
+    // refinement is not, and would let a candidate win by a luckier α-model alone).
+    options_.refine = false;
+    for (const DiagnoseRun& r : runs) {
+      if (!r.model.use_alpha || r.model.alpha.alpha != a.alpha ||
+          r.model.alpha.n_breakpoints != a.n_breakpoints || r.model.alpha.c_n1 != a.c_n1) {
+        return;  // runs with different α-models: not one model to replace
+      }
+      if (r.kind != "sine" || !r.freq_hz || !(*r.freq_hz > 0.0)) continue;
+      const Controller& c = r.controller;
+      if (!(c.kp > 0.0) || c.ki != 0.0 || c.kd != 0.0) continue;
+      if (options_.kp != c.kp && !sines_.empty()) continue;  // one kp (the first sine run's)
+      options_.kp = c.kp;
+      const RunData& d = *r.data;
+      const IndexRange w = steady_state_window(d.t, *r.freq_hz, 0.5 * (d.t.back() - d.t.front()));
+      if (w.size() < 8) continue;
+      // Poses by their inertia (a pose's runs share its model).
+      std::size_t pose = inertia_.size();
+      for (std::size_t k = 0; k < inertia_.size(); ++k) {
+        if (inertia_[k] == r.model.inertia) pose = k;
+      }
+      if (pose == inertia_.size()) inertia_.push_back(r.model.inertia);
+      sines_.push_back({&r, w, pose});
+    }
+    usable_ = sines_.size() >= options_.n_breakpoints + 1;
+  }
+
+  bool usable() const { return usable_; }
+
+  /// The α-model identified with effects `e` in the plant input; nullopt when it fails.
+  std::optional<AlphaModel> fit(const Effects& e) const {
+    if (!usable_) return std::nullopt;
+    const AlphaFitResult r = fit_alpha_model(points(e), options_);
+    if (!r.ok || !r.model.valid()) return std::nullopt;
+    return r.model;
+  }
+
+  /// The sine runs' local points with effects `e` in the plant input, by pose.
+  std::vector<AlphaFitPose> points(const Effects& e) const {
+    std::vector<AlphaFitPose> poses(inertia_.size());
+    for (std::size_t k = 0; k < poses.size(); ++k) poses[k].inertia = inertia_[k];
+    for (const SineRun& s : sines_) {
+      poses[s.pose].points.push_back(sine_point_with_effects(*s.run->data, s.window, *s.run->freq_hz,
+                                                             options_.kp, sample_period_s_, e));
+    }
+    return poses;
+  }
+
+  /// The α-model with effects `e` at the given breakpoints; nullopt when it fails.
+  std::optional<AlphaModel> fit_at(const Effects& e, const std::vector<double>& breakpoints) const {
+    if (!usable_) return std::nullopt;
+    const AlphaFitResult r = fit_alpha_model_at(points(e), breakpoints, options_);
+    if (!r.ok || !r.model.valid()) return std::nullopt;
+    return r.model;
+  }
+
+  /// The α-model with effects `e`: the grid winner (fit()), with `refined` also the winner refined
+  /// off the grid (as fit_dataset() does), and the models at the next `runners_up` best
+  /// breakpoint sets of the grid search.
+  std::vector<AlphaModel> variants(const Effects& e, std::size_t runners_up, bool refined) const {
+    std::vector<AlphaModel> out;
+    if (!usable_) return out;
+    const std::vector<AlphaFitPose> poses = points(e);
+    AlphaFitOptions o = options_;
+    o.keep_runners_up = runners_up;
+    o.refine = refined;
+    o.refine_max_evaluations = 150;
+    const AlphaFitResult r = fit_alpha_model(poses, o);
+    if (!r.ok || !r.model.valid()) return out;
+    out.push_back(r.model);
+    if (r.refined) {  // and the grid winner it started from
+      const AlphaFitResult g = fit_alpha_model(poses, options_);
+      if (g.ok && g.model.valid()) out.push_back(g.model);
+    }
+    for (const auto& bp : r.runners_up) {
+      const AlphaFitResult v = fit_alpha_model_at(poses, bp, o);
+      if (v.ok && v.model.valid()) out.push_back(v.model);
+    }
+    return out;
+  }
+
+ private:
+  struct SineRun {
+    const DiagnoseRun* run;
+    IndexRange window;
+    std::size_t pose;
+  };
+
+  double sample_period_s_ = 0.0;
+  AlphaFitOptions options_;
+  std::vector<double> inertia_;
+  std::vector<SineRun> sines_;
+  bool usable_ = false;
+};
+
+/// The new effect's parameters searched with the α-model re-identified at every value (unit
+/// coefficient factors).
+struct EffectSearch {
+  const std::vector<DiagnoseRun>* runs = nullptr;
+  const std::vector<std::size_t>* fit_runs = nullptr;
+  const Reidentifier* reid = nullptr;
+  const DiagnoseOptions* opt = nullptr;
+  const ParamBlock* block = nullptr;
+  Effects base;
+  ModelScales unit;  ///< factors 1, shaped like the model's
+  double best_rms = kInf;
+  Effects best;
+  std::optional<AlphaModel> best_alpha;
+  int evaluations = 0;
+
+  /// Pooled RMS over the fit runs of the model with the block's parameters x.
+  double evaluate(const double* x) {
+    ++evaluations;
+    Effects e = base;
+    for (std::size_t j = 0; j < block->params.size(); ++j) e.*(block->params[j].member) = x[j];
+    const std::optional<AlphaModel> alpha = reid->fit(e);
+    if (!alpha) return 1e30;
+    const double r = pooled_rms(*runs, run_rms_with(*runs, *fit_runs, e, unit, *opt, alpha), *fit_runs);
+    if (!std::isfinite(r)) return 1e30;
+    if (r < best_rms) {
+      best_rms = r;
+      best = e;
+      best_alpha = alpha;
+    }
+    return r;
+  }
+};
+
+double effect_search_objective(unsigned n, const double* x, double* grad, void* data) {
+  (void)n;
+  (void)grad;
+  return static_cast<EffectSearch*>(data)->evaluate(x);
+}
+
+/// Nelder-Mead (NLopt, bound-constrained; the cost has kinks where a limit or deadzone starts to
+/// act) from `starts` on the block's parameters, each at most `max_evaluations` evaluations.
+/// The first simplex step of each parameter is `step`.
+void search_effect(EffectSearch& s, const std::vector<std::vector<double>>& starts,
+                   const std::vector<double>& step, int max_evaluations) {
+  const unsigned nx = static_cast<unsigned>(s.block->params.size());
+  if (nx == 0) return;
+  for (const auto& x0 : starts) {
+    std::vector<double> x = x0;
+    for (unsigned j = 0; j < nx; ++j) x[j] = std::clamp(x[j], s.block->lower[j], s.block->upper[j]);
+    nlopt_opt o = nlopt_create(NLOPT_LN_NELDERMEAD, nx);
+    if (o == nullptr) return;
+    std::vector<double> lb = s.block->lower, ub = s.block->upper;
+    for (unsigned j = 0; j < nx; ++j) {  // NLopt wants finite bounds for the simplex steps
+      if (!std::isfinite(lb[j])) lb[j] = -HUGE_VAL;
+      if (!std::isfinite(ub[j])) ub[j] = HUGE_VAL;
+    }
+    nlopt_set_lower_bounds(o, lb.data());
+    nlopt_set_upper_bounds(o, ub.data());
+    nlopt_set_initial_step(o, step.data());
+    nlopt_set_min_objective(o, effect_search_objective, &s);
+    nlopt_set_ftol_rel(o, 1e-4);
+    nlopt_set_maxeval(o, max_evaluations);
+    double f = 0.0;
+    (void)nlopt_optimize(o, x.data(), &f);  // the best point seen is kept in s
+    nlopt_destroy(o);
+  }
+}
+
+/// The breakpoint sets that fit the sine points about equally well can predict the other runs
+/// quite differently (the square runs' α ≈ 0 lies below the sine points' α). Among the variants
+/// of the α-model re-identified with effects `e` (reid.variants()) and `also`, the one with the
+/// lowest pooled RMS over the fit runs (unit factors); nullopt when none simulates. Every
+/// candidate is given the same choice; `none` also the refined winner (`refined`) and the model
+/// as given (`also`): the local refinement moves the breakpoints discontinuously with the data,
+/// and offered to a candidate it would let it win by a luckier α-model alone, so the benefit of
+/// the doubt goes to `none`.
+std::optional<AlphaModel> best_variant(const Reidentifier& reid, const Effects& e,
+                                       const std::vector<DiagnoseRun>& runs,
+                                       const std::vector<std::size_t>& fit_runs,
+                                       const ModelScales& unit, const DiagnoseOptions& opt,
+                                       bool refined,
+                                       const std::optional<AlphaModel>& also = std::nullopt) {
+  std::vector<AlphaModel> models = reid.variants(e, kAlphaVariants, refined);
+  if (also) models.push_back(*also);
+  std::optional<AlphaModel> best;
+  double best_rms = kInf;
+  for (const AlphaModel& m : models) {
+    const std::optional<AlphaModel> a = m;
+    const double r = pooled_rms(runs, run_rms_with(runs, fit_runs, e, unit, opt, a), fit_runs);
+    if (std::isfinite(r) && r < best_rms) {
+      best_rms = r;
+      best = m;
+    }
+  }
+  return best;
+}
+
+/// The search of a new effect of `kind` with re-identification (EffectSearch; `s` has all but the
+/// block set): a coarse scan of the effect's main parameter on a grid scaled by the data (largest
+/// command v_max, gain kp), with the equation-error start `e` among the points, then Nelder-Mead
+/// from the two best points. Returns false when no evaluation succeeded.
+bool search_reidentified(EffectKind kind, const Effects& e, const DataScales& sc, double kp,
+                         EffectSearch& s) {
+  const ParamBlock block = param_block(kind, e, sc);
+  s.block = &block;
+  const double vm = sc.v_max;
+  std::vector<std::vector<double>> grid{block.start};
+  std::vector<double> step;
+  for (std::size_t j = 0; j < block.params.size(); ++j) {
+    const std::string name = block.params[j].name;
+    const double x = block.start[j];
+    double st = 0.5 * std::abs(x);
+    if (name == "coulomb_v" || name == "offset_v" || name == "cogging_v") st = std::max(st, 0.02 * vm);
+    if (name == "gravity_v") st = 0.1 * kp;
+    if (name == "gravity_theta0_rad" || name == "cogging_phase_rad") st = 0.5;
+    if (name == "cogging_period_rad") st = 0.02 * x;
+    if (name == "delay_s") st = std::max(0.3 * x, 0.0005);
+    if (name == "saturation_v") st = 0.1 * vm;
+    if (name == "deadzone_v") st = std::max(0.3 * x, 0.005 * vm);
+    step.push_back(st);
+  }
+  switch (kind) {
+    case EffectKind::kCoulombFriction:
+      for (double f : {0.01, 0.03, 0.1, 0.3}) grid.push_back({f * vm});
+      break;
+    case EffectKind::kOffsetTorque:
+      grid.push_back({0.0});
+      break;
+    case EffectKind::kGravity: {
+      // A spring g·cos θ0 of either sign, up to about the controller's stiffness kp (the equation-
+      // error start from a model that absorbed the spring can have the wrong sign); θ0 folded.
+      // θ0 = 0 (a pure spring over a small range of θ) and the start's θ0.
+      const double th0 = std::remainder(block.start[1], kTwoPi / 2.0);
+      for (double f : {-0.3, -0.1, 0.05, 0.1, 0.2, 0.3, 0.6}) {
+        grid.push_back({f * kp, 0.0});
+        if (std::abs(th0) > 0.05) grid.push_back({f * kp, th0});
+      }
+      break;
+    }
+    case EffectKind::kTimeDelay:
+      grid.clear();
+      for (double x : {0.0005, 0.001, 0.002, 0.004, 0.008, 0.016, 0.032}) grid.push_back({x});
+      break;
+    case EffectKind::kSaturation:
+      grid.clear();
+      for (double f : {0.95, 0.8, 0.6, 0.4, 0.25}) grid.push_back({f * vm});
+      break;
+    case EffectKind::kDeadzone:
+      grid.clear();
+      for (double f : {0.005, 0.01, 0.02, 0.05, 0.1, 0.2}) grid.push_back({f * vm});
+      break;
+    default:
+      break;
+  }
+  std::vector<std::pair<double, std::size_t>> scored;
+  for (std::size_t g = 0; g < grid.size(); ++g) {
+    for (std::size_t j = 0; j < grid[g].size(); ++j)
+      grid[g][j] = std::clamp(grid[g][j], block.lower[j], block.upper[j]);
+    scored.push_back({s.evaluate(grid[g].data()), g});
+  }
+  std::sort(scored.begin(), scored.end());
+  std::vector<std::vector<double>> starts;
+  for (std::size_t k = 0; k < std::min<std::size_t>(2, scored.size()); ++k) {
+    if (scored[k].first < 1e29) starts.push_back(grid[scored[k].second]);
+  }
+  // Steps no larger than the grid's spacing near the start.
+  if (kind == EffectKind::kTimeDelay && !starts.empty()) step[0] = 0.4 * starts.front()[0];
+  if (kind == EffectKind::kDeadzone && !starts.empty()) step[0] = 0.4 * starts.front()[0];
+  search_effect(s, starts, step, 8 + 8 * static_cast<int>(block.params.size()));
+  s.block = nullptr;
+  return std::isfinite(s.best_rms);
 }
 
 /// Residual location and its words.
@@ -463,8 +757,9 @@ ResidualLocation locate(const std::vector<DiagnoseRun>& runs,
 }  // namespace
 
 JointModelAtPose diagnosed_model(const JointModelAtPose& base, const Effects& e,
-                                 const ModelScales& scales) {
+                                 const ModelScales& scales, const std::optional<AlphaModel>& alpha) {
   JointModelAtPose m = base;
+  if (alpha) m.alpha = *alpha;
   auto factor = [](const std::vector<double>& f, std::size_t k) {
     return f.empty() ? 1.0 : f[std::min(k, f.size() - 1)];
   };
@@ -482,11 +777,12 @@ std::vector<std::vector<double>> simulate_diagnosed(const std::vector<DiagnoseRu
                                                     const Effects& e,
                                                     const ModelScales& scales,
                                                     const SimulationOptions& simulation,
-                                                    unsigned threads) {
+                                                    unsigned threads,
+                                                    const std::optional<AlphaModel>& alpha) {
   std::vector<std::vector<double>> out(runs.size());
   parallel_for(runs.size(), threads, [&](std::size_t i) {
     const SimulationResult s =
-        simulate_run(runs[i], diagnosed_model(runs[i].model, e, scales), simulation);
+        simulate_run(runs[i], diagnosed_model(runs[i].model, e, scales, alpha), simulation);
     if (s.ok) out[i] = s.theta;
   });
   return out;
@@ -612,21 +908,109 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
     if (effect_active(current, k)) named_kinds.push_back(k);
   }
 
+  const std::vector<DiagnoseRun> no_runs;
+  // (runs_in must outlive reid: it keeps pointers to the sine runs)
+  Reidentifier reid(opt.reidentify ? runs_in : no_runs, opt.simulation.loop_period_s);
+  const ModelScales unit_scales = ms;
+  std::optional<AlphaModel> alpha;  // the re-identified α-model in use (nullopt: the runs' own)
   for (std::size_t round = 0; round < opt.max_effects; ++round) {
     DiagnoseRound rd;
     {
-      const auto rr = run_rms_with(runs_in, all, current, ms, opt);
+      const auto rr = run_rms_with(runs_in, all, current, ms, opt, alpha);
       rd.error_before = pooled_rms(runs_in, rr, all);
     }
     // The current model's simulations along the fit runs, for the equation-error starts.
     std::vector<SimulationResult> fit_sims(runs.size());
     parallel_for(fit_runs.size(), opt.threads, [&](std::size_t j) {
       const std::size_t i = fit_runs[j];
-      fit_sims[i] = simulate_run(runs[i], diagnosed_model(runs[i].model, current, ms), opt.simulation);
+      fit_sims[i] = simulate_run(runs[i], diagnosed_model(runs[i].model, current, ms, alpha), opt.simulation);
     });
     const TorqueResidual tr = torque_residual(runs, fit_runs, fit_sims, current);
     double none_train_rms = kNaN;
+    const std::optional<AlphaModel> none_alpha =
+        reid.usable() ? best_variant(reid, current, runs, fit_runs, unit_scales, opt, true,
+                                     alpha ? alpha : std::optional<AlphaModel>(runs_in.front().model.alpha))
+                      : std::nullopt;
 
+      auto fit_candidate = [&](EffectKind kind, const Effects& e, const ModelScales& start_scales,
+                               const std::optional<AlphaModel>& cand_alpha, bool searched) {
+      CandidateScore cand;
+      cand.effect = kind;
+      std::vector<ParamBlock> blocks;
+      for (EffectKind k : named_kinds) blocks.push_back(param_block(k, e, sc));
+      if (kind != EffectKind::kNone) blocks.push_back(param_block(kind, e, sc));
+      Effects base = current;
+      // Fit on all fit runs, then on each fold from there.
+      OutputErrorProblem pr = make_problem(runs, fit_runs, blocks, base, start_scales, opt, cand_alpha);
+      OutputErrorOptions oo;
+      oo.threads = opt.threads;
+      oo.max_iterations = 15;
+      // The command-path effects have cost functions with several minima (a delay against a
+      // lightly damped resonance; a limit or deadzone that is inactive at its start): extra starts
+      // (unless the search above has already looked).
+      if (!searched) {
+        const std::size_t at = pr.parameters.size() - 1;  // the new effect's (only) parameter
+        std::vector<double> extra;
+        if (kind == EffectKind::kTimeDelay) extra = {0.001, 0.004, 0.012};
+        if (kind == EffectKind::kSaturation) extra = {0.8 * sc.v_max, 0.5 * sc.v_max, 0.3 * sc.v_max};
+        if (kind == EffectKind::kDeadzone) extra = {0.01 * sc.v_max, 0.05 * sc.v_max};
+        for (double x : extra) {
+          std::vector<double> p0;
+          for (const auto& par : pr.parameters) p0.push_back(par.initial);
+          p0[at] = std::clamp(x, pr.parameters[at].lower, pr.parameters[at].upper);
+          if (std::abs(p0[at] - pr.parameters[at].initial) > 1e-3 * std::abs(p0[at]))
+            oo.extra_starts.push_back(p0);
+        }
+      }
+      const OutputErrorResult full = fit_output_error(pr, oo);
+      if (!full.ok) {
+        cand.message = full.message;
+        return cand;
+      }
+      cand.ok = true;
+      cand.reidentified = searched;
+      cand.alpha = cand_alpha;
+      cand.scales = scales_of(ms, full.values);
+      cand.effects = effects_of(blocks, base, ms, full.values);
+      cand.training_rms = full.rms;
+      const bool hopeless = kind != EffectKind::kNone && std::isfinite(none_train_rms) &&
+                            !(full.rms <= (1.0 - 0.5 * opt.significance) * none_train_rms);
+      if (hopeless) {
+        cand.score = full.rms;
+        cand.fold_scores = {full.rms, full.rms};
+        cand.message = "training RMS not below (1 − significance/2) × that of none: not cross-validated";
+        cand.cross_validated = false;
+      } else if (can_cv) {
+        double ss = 0.0, n = 0.0;
+        for (int f = 0; f < 2; ++f) {
+          OutputErrorProblem pf = make_problem(runs, fold[f], blocks, base, ms, opt, cand_alpha);
+          for (std::size_t j = 0; j < pf.parameters.size(); ++j)
+            pf.parameters[j].initial = std::clamp(full.values[j], pf.parameters[j].lower, pf.parameters[j].upper);
+          OutputErrorOptions of = oo;
+          of.max_iterations = 8;
+          of.extra_starts.clear();
+          const OutputErrorResult r = fit_output_error(pf, of);
+          const std::vector<double>& p = r.ok ? r.values : full.values;
+          const Effects ef = effects_of(blocks, base, ms, p);
+          const std::vector<std::size_t>& held = fold[1 - f];
+          const auto rr = run_rms_with(runs, held, ef, scales_of(ms, p), opt, cand_alpha);
+          const double fr = pooled_rms(runs, rr, held);
+          cand.fold_scores[static_cast<std::size_t>(1 - f)] = std::isfinite(fr) ? fr : kInf;
+          for (std::size_t i : held) {
+            const double m = static_cast<double>(runs[i].data->size());
+            ss += std::isfinite(rr[i]) ? rr[i] * rr[i] * m : kInf;
+            n += m;
+          }
+        }
+        cand.score = n > 0 ? std::sqrt(ss / n) : kInf;
+      } else {
+        cand.score = full.rms;
+        cand.fold_scores = {full.rms, full.rms};
+      }
+      const auto rr_all = run_rms_with(runs_in, all, cand.effects, cand.scales, opt, cand_alpha);
+      cand.error_after = pooled_rms(runs_in, rr_all, all);
+      return cand;
+      };
     for (EffectKind kind : catalogue) {
       CandidateScore cand;
       cand.effect = kind;
@@ -646,96 +1030,56 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
           equation_error_start(kind, tr, sc, e);
           break;
         case EffectKind::kTimeDelay:
+          if (reid.usable()) break;  // scanned with re-identification below
           e.delay_s = scan_start(runs, fit_runs, e, &Effects::delay_s,
-                                 {0.0005, 0.001, 0.002, 0.004, 0.008, 0.016, 0.032}, ms, opt);
+                                 {0.0005, 0.001, 0.002, 0.004, 0.008, 0.016, 0.032}, ms, opt, alpha);
           break;
         case EffectKind::kSaturation:
+          if (reid.usable()) break;
           e.saturation_v = scan_start(runs, fit_runs, e, &Effects::saturation_v,
                                       {0.95 * sc.v_max, 0.8 * sc.v_max, 0.6 * sc.v_max,
                                        0.4 * sc.v_max, 0.25 * sc.v_max},
-                                      ms, opt);
+                                      ms, opt, alpha);
           break;
         case EffectKind::kDeadzone:
+          if (reid.usable()) break;
           e.deadzone_v = scan_start(runs, fit_runs, e, &Effects::deadzone_v,
                                     {0.005 * sc.v_max, 0.01 * sc.v_max, 0.02 * sc.v_max,
                                      0.05 * sc.v_max, 0.1 * sc.v_max, 0.2 * sc.v_max},
-                                    ms, opt);
+                                    ms, opt, alpha);
           break;
         case EffectKind::kNone:
           break;
       }
-      std::vector<ParamBlock> blocks;
-      for (EffectKind k : named_kinds) blocks.push_back(param_block(k, e, sc));
-      if (kind != EffectKind::kNone) blocks.push_back(param_block(kind, e, sc));
-      Effects base = current;
-      // Fit on all fit runs, then on each fold from there.
-      OutputErrorProblem pr = make_problem(runs, fit_runs, blocks, base, ms, opt);
-      OutputErrorOptions oo;
-      oo.threads = opt.threads;
-      oo.max_iterations = 15;
-      // The command-path effects have cost functions with several minima (a delay against a
-      // lightly damped resonance; a limit or deadzone that is inactive at its start): extra starts.
-      {
-        const std::size_t at = pr.parameters.size() - 1;  // the new effect's (only) parameter
-        std::vector<double> extra;
-        if (kind == EffectKind::kTimeDelay) extra = {0.001, 0.004, 0.012};
-        if (kind == EffectKind::kSaturation) extra = {0.8 * sc.v_max, 0.5 * sc.v_max, 0.3 * sc.v_max};
-        if (kind == EffectKind::kDeadzone) extra = {0.01 * sc.v_max, 0.05 * sc.v_max};
-        for (double x : extra) {
-          std::vector<double> p0;
-          for (const auto& par : pr.parameters) p0.push_back(par.initial);
-          p0[at] = std::clamp(x, pr.parameters[at].lower, pr.parameters[at].upper);
-          if (std::abs(p0[at] - pr.parameters[at].initial) > 1e-3 * std::abs(p0[at]))
-            oo.extra_starts.push_back(p0);
+      // The new effect's parameters searched with the α-model re-identified for each value
+      // (Reidentifier); the output-error fit below then starts from the best.
+      ModelScales start_scales = ms;
+      std::optional<AlphaModel> cand_alpha = alpha;
+      bool searched = false;
+      if (kind == EffectKind::kNone && none_alpha) {
+        // `none` is identified the same way as the candidates (its α-model re-identified with the
+        // current effects), so a candidate does not win by the re-identification alone.
+        cand_alpha = none_alpha;
+        start_scales = unit_scales;
+      }
+      if (kind != EffectKind::kNone && reid.usable()) {
+        EffectSearch search;
+        search.runs = &runs;
+        search.fit_runs = &fit_runs;
+        search.reid = &reid;
+        search.opt = &opt;
+        search.base = current;
+        search.unit = unit_scales;
+        if (search_reidentified(kind, e, sc, runs_in.front().controller.kp, search)) {
+          e = search.best;
+          start_scales = unit_scales;
+          cand_alpha = best_variant(reid, e, runs, fit_runs, unit_scales, opt, false);
+          searched = true;
         }
       }
-      const OutputErrorResult full = fit_output_error(pr, oo);
-      if (!full.ok) {
-        cand.message = full.message;
-        rd.candidates.push_back(cand);
-        continue;
-      }
-      cand.ok = true;
-      cand.scales = scales_of(ms, full.values);
-      cand.effects = effects_of(blocks, base, ms, full.values);
-      if (kind == EffectKind::kNone) none_train_rms = full.rms;
-      const bool hopeless = kind != EffectKind::kNone && std::isfinite(none_train_rms) &&
-                            !(full.rms <= (1.0 - 0.5 * opt.significance) * none_train_rms);
-      if (hopeless) {
-        cand.score = full.rms;
-        cand.fold_scores = {full.rms, full.rms};
-        cand.message = "training RMS not below (1 − significance/2) × that of none: not cross-validated";
-        cand.cross_validated = false;
-      } else if (can_cv) {
-        double ss = 0.0, n = 0.0;
-        for (int f = 0; f < 2; ++f) {
-          OutputErrorProblem pf = make_problem(runs, fold[f], blocks, base, ms, opt);
-          for (std::size_t j = 0; j < pf.parameters.size(); ++j)
-            pf.parameters[j].initial = std::clamp(full.values[j], pf.parameters[j].lower, pf.parameters[j].upper);
-          OutputErrorOptions of = oo;
-          of.max_iterations = 8;
-          of.extra_starts.clear();
-          const OutputErrorResult r = fit_output_error(pf, of);
-          const std::vector<double>& p = r.ok ? r.values : full.values;
-          const Effects ef = effects_of(blocks, base, ms, p);
-          const std::vector<std::size_t>& held = fold[1 - f];
-          const auto rr = run_rms_with(runs, held, ef, scales_of(ms, p), opt);
-          const double fr = pooled_rms(runs, rr, held);
-          cand.fold_scores[static_cast<std::size_t>(1 - f)] = std::isfinite(fr) ? fr : kInf;
-          for (std::size_t i : held) {
-            const double m = static_cast<double>(runs[i].data->size());
-            ss += std::isfinite(rr[i]) ? rr[i] * rr[i] * m : kInf;
-            n += m;
-          }
-        }
-        cand.score = n > 0 ? std::sqrt(ss / n) : kInf;
-      } else {
-        cand.score = full.rms;
-        cand.fold_scores = {full.rms, full.rms};
-      }
-      const auto rr_all = run_rms_with(runs_in, all, cand.effects, cand.scales, opt);
-      cand.error_after = pooled_rms(runs_in, rr_all, all);
-      rd.candidates.push_back(cand);
+      CandidateScore fitted = fit_candidate(kind, e, start_scales, cand_alpha, searched);
+      if (kind == EffectKind::kNone && fitted.ok) none_train_rms = fitted.training_rms;
+      rd.candidates.push_back(fitted);
     }
     // The winner: lowest score; named only if significantly better than `none` in both folds.
     const CandidateScore* none = nullptr;
@@ -763,13 +1107,33 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
         }
       }
     }
+    const double keep = 1.0 - opt.significance;
+    auto beats = [&](const CandidateScore& c, const CandidateScore& ref) {
+      return c.score <= keep * ref.score && c.fold_scores[0] <= keep * ref.fold_scores[0] &&
+             c.fold_scores[1] <= keep * ref.fold_scores[1];
+    };
     bool named = best != nullptr && best->effect != EffectKind::kNone;
     if (named) {
-      const double keep = 1.0 - opt.significance;
-      named = best->score <= keep * none->score && best->fold_scores[0] <= keep * none->fold_scores[0] &&
-              best->fold_scores[1] <= keep * none->fold_scores[1] &&
+      named = beats(*best, *none) &&
               // ... and the whole runs agree: the error over all samples of all runs drops too.
               best->error_after <= (1.0 - 0.5 * opt.significance) * rd.error_before;
+    }
+    if (named && best->alpha && reid.usable()) {
+      // The winner's α-model has breakpoints of its own. Breakpoint sets that fit the sine points
+      // equally well can predict the other runs quite differently, so the winner must also beat
+      // `none` with the α-model at ITS breakpoints (coefficients with the current effects):
+      // otherwise the gain is the breakpoints', not the effect's.
+      const std::vector<double> bp(best->alpha->alpha.begin(),
+                                   best->alpha->alpha.begin() +
+                                       static_cast<std::ptrdiff_t>(best->alpha->n_breakpoints));
+      const std::optional<AlphaModel> twin_alpha = reid.fit_at(current, bp);
+      if (twin_alpha) {
+        CandidateScore twin = fit_candidate(EffectKind::kNone, current, unit_scales, twin_alpha, false);
+        if (twin.ok) {
+          named = beats(*best, twin);
+          rd.none_at_winner_breakpoints = twin;
+        }
+      }
     }
     rd.named = named ? best->effect : EffectKind::kNone;
     if (!named) {  // `none`: the model stays as it was
@@ -779,6 +1143,7 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
     }
     current = best->effects;
     ms = best->scales;
+    alpha = best->alpha;
     rd.error_after = best->error_after;
     res.rounds.push_back(rd);
     named_kinds.push_back(rd.named);
@@ -786,7 +1151,9 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
   }
   res.effects = current;
   res.scales = ms;
-  const std::vector<std::vector<double>> sims1 = simulate_diagnosed(runs_in, current, ms, opt.simulation, opt.threads);
+  res.alpha = alpha;
+  const std::vector<std::vector<double>> sims1 =
+      simulate_diagnosed(runs_in, current, ms, opt.simulation, opt.threads, alpha);
   res.after = locate(runs_in, sims1);
   res.error_after = res.after.rms;
   res.ok = !res.rounds.empty() && res.message.empty();
