@@ -510,6 +510,22 @@ TEST_F(OmniFitFitKnownEffects, BadEffectsAreExit2NamingTheFileOrOption) {
   }
 }
 
+TEST_F(OmniFitFitKnownEffects, RefineEffectsSettlesTheFrictionOrNeedsOne) {
+  // The plumbing: the refined value is written and the report says how it was found. (The
+  // accuracy is test_effect_refinement's: this four-point sweep without square runs lets the
+  // α-model absorb any friction, so the value here is not pinned.)
+  const Ran r = fit("--effect coulomb_friction:coulomb_v=0.006 --refine-effects");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(read_model_file(dir_ / "out" / "model.json").effects.coulomb_v, 0.006);
+  EXPECT_NE(slurp(dir_ / "out" / "report.md").find("refined on all runs by --refine-effects"),
+            std::string::npos);
+  fs::remove(dir_ / "out" / "model.json");
+  const Ran none = fit("--refine-effects");
+  EXPECT_EQ(none.exit_code, 2);
+  EXPECT_NE(none.err.find("--refine-effects needs known effects"), std::string::npos) << none.err;
+  EXPECT_FALSE(fs::exists(dir_ / "out" / "model.json"));
+}
+
 #endif  // ALPHAINV_OMNI_FIT_EXE
 
 }  // namespace

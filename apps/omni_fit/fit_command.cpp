@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "alphainv/dataset.hpp"
+#include "alphainv/effect_refinement.hpp"
 #include "alphainv/error.hpp"
 #include "alphainv/fit_pipeline.hpp"
 #include "alphainv/model_file.hpp"
@@ -294,7 +295,22 @@ int run_fit(const FitCommandOptions& opt) {
   if (progress.enabled()) popt.progress = show;
   popt.threads = opt.threads;
   popt.n_breakpoints = opt.n_breakpoints;
-  const DatasetFit fit = fit_dataset(ds, data, popt);
+  EffectRefinement refinement;
+  if (opt.refine_effects && active_effects(popt.effects).empty()) {
+    progress.clear();
+    std::fprintf(stderr, "omni_fit fit: --refine-effects needs known effects (--effects-from or "
+                         "--effect)\n");
+    return 2;
+  }
+  const DatasetFit fit = opt.refine_effects ? refine_effects(ds, data, popt, &refinement)
+                                            : fit_dataset(ds, data, popt);
+  if (opt.refine_effects) {
+    effects_source += "; refined on all runs by --refine-effects (" +
+                      std::to_string(refinement.evaluations) + " fits, α-model Σ‖θ_sim − θ‖² " +
+                      fmt(refinement.sse_start) + " → " + fmt(refinement.sse_refined) +
+                      " over " + std::to_string(refinement.runs_scored) + " runs" +
+                      (refinement.message.empty() ? "" : "; " + refinement.message) + ")";
+  }
 
   ModelFile model;
   try {

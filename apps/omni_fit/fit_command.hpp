@@ -20,6 +20,8 @@ struct FitCommandOptions {
   std::string effects_from;
   /// --effect NAME:PARAM=VALUE[,PARAM=VALUE]: known effects, applied after --effects-from.
   std::vector<std::string> effect_specs;
+  /// --refine-effects: refine the known effects' parameters on all runs (effect_refinement.hpp).
+  bool refine_effects = false;
 };
 
 /// Sets the effect one `--effect NAME:PARAM=VALUE[,PARAM=VALUE]` names in `effects`: NAME a

@@ -106,9 +106,14 @@ int main(int argc, char** argv) {
                    "offset_torque, gravity, cogging, time_delay, saturation, deadzone; parameters "
                    "as in model.json)")
       ->allow_extra_args(false);
+  fitc->add_flag("--refine-effects", fo.refine_effects,
+                 "refine the known effects' parameters on all runs: each trial a whole fit, "
+                 "scored by the alpha-model's squared position error over every simulated run "
+                 "(Nelder-Mead, at most 40 fits)");
   fitc->footer("Examples:\n  omni_fit fit data/omni_yaw_sim -o out/fit --json\n"
                "  omni_fit fit data/omni_yaw_sim -o out/fit-fx --effect coulomb_friction:coulomb_v=0.004\n"
                "  omni_fit fit run_dir -o out/fit-fx --effects-from out/diag/model.json\n"
+               "  omni_fit fit run_dir -o out/fit-fx --effects-from out/diag/model.json --refine-effects\n"
                "Exit codes: 0 ok, 1 usage, 2 bad input (the message names the file or option), 3 "
                "nothing could be fitted.");
   omni_fit::SimulateCommandOptions so;
