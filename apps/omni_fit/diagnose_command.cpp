@@ -129,10 +129,14 @@ std::string make_report(const std::string& dataset, const std::vector<DiagnoseRu
     << r.fit_runs.size() << " runs; wall time " << fmt(r.seconds, "%.1f") << " s.\n\n";
   s << "## Where the model was wrong (before)\n\n";
   for (const auto& f : r.before.findings) s << "- " << f << "\n";
-  s << "\n## Candidates\n\nEach candidate effect was fitted by output error together with the "
-       "α-model's coefficient factors and scored by 2-fold cross-validation (fitted on one half "
-       "of each run, RMS error on the other half). An effect is named only when its score is at "
-       "least 10 % below that of `none` in both folds.\n\n";
+  s << "\n## Candidates\n\nEach candidate effect was searched with the α-model re-identified "
+       "from the sine runs with the effect in the plant input (when the model has an α-model and "
+       "the dataset sine runs), then fitted by output error together with the α-model's "
+       "coefficient factors, and scored by 2-fold cross-validation (fitted on one half of each "
+       "fit window, RMS error on the other half). An effect is named only when its score is at "
+       "least 10 % below that of `none` in both folds, the error over all runs drops by 5 % or "
+       "more, and it also beats `none` refitted at its α-model's breakpoints. See "
+       "docs/diagnose.md.\n\n";
   for (std::size_t round = 0; round < r.rounds.size(); ++round) {
     const DiagnoseRound& rd = r.rounds[round];
     s << "### Round " << round + 1 << ": " << effect_name(rd.named) << " (RMS error "
@@ -145,6 +149,12 @@ std::string make_report(const std::string& dataset, const std::vector<DiagnoseRu
         << " | " << fmt(c.score) << " | " << fmt(c.fold_scores[0]) << " | "
         << fmt(c.fold_scores[1]) << " | " << fmt(c.error_after) << " | "
         << (c.ok ? parameters_text(c.effects, c.effect) : "–") << " | " << c.message << " |\n";
+    }
+    if (rd.none_at_winner_breakpoints) {
+      const CandidateScore& t = *rd.none_at_winner_breakpoints;
+      s << "| none at the winner's breakpoints | " << fmt(t.score) << " | " << fmt(t.fold_scores[0])
+        << " | " << fmt(t.fold_scores[1]) << " | " << fmt(t.error_after)
+        << " | – | the winner must beat this too |\n";
     }
     s << "\n";
   }
