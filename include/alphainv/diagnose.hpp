@@ -21,10 +21,12 @@
 ///    every fit window, RMS error on the second half, and the other way round), so a bigger model
 ///    does not win by default. The best candidate is named only when its cross-validated error is below
 ///    (1 − significance) times that of `none` in both folds, and its RMS over all samples of all
-///    runs is below (1 − significance/2) times that of the model before; otherwise `none`. Candidates whose
+///    runs is below (1 − significance/2) times that of the model before, and it also beats `none`
+///    refitted at the winner's α-model breakpoints; otherwise `none`. Candidates whose search or
 ///    fit on all fit runs is not below (1 − significance/2) times that of `none` cannot meet
-///    this and are not cross-validated (their score is their training RMS, marked). Among
-///    candidates within 5 % of the best score the one with fewest parameters is taken.
+///    this and are not fitted further or cross-validated, nor are any but the two with the lowest
+///    training RMS (their score is their training RMS, marked). Among candidates within 5 % of
+///    the best score the one with fewest parameters is taken.
 /// 4. With max_effects > 1 it goes round again with the named effects kept (and refitted).
 /// Offline; never throws on what the data cannot support: the result says.
 

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <map>
 #include <thread>
 
 #include <Eigen/Dense>
@@ -25,7 +26,7 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kTwoPi = 6.283185307179586476925;
 /// Runners-up of the α-model's grid search tried by best_variant().
-constexpr std::size_t kAlphaVariants = 12;
+constexpr std::size_t kAlphaVariants = 8;
 
 unsigned thread_count(unsigned requested, std::size_t jobs) {
   const unsigned hw = std::max(1u, std::thread::hardware_concurrency());
@@ -543,7 +544,8 @@ std::optional<AlphaModel> best_variant(const Reidentifier& reid, const Effects& 
                                        const std::vector<std::size_t>& fit_runs,
                                        const ModelScales& unit, const DiagnoseOptions& opt,
                                        bool refined,
-                                       const std::optional<AlphaModel>& also = std::nullopt) {
+                                       const std::optional<AlphaModel>& also = std::nullopt,
+                                       double* rms = nullptr) {
   std::vector<AlphaModel> models = reid.variants(e, kAlphaVariants, refined);
   if (also) models.push_back(*also);
   std::optional<AlphaModel> best;
@@ -556,13 +558,14 @@ std::optional<AlphaModel> best_variant(const Reidentifier& reid, const Effects& 
       best = m;
     }
   }
+  if (rms != nullptr) *rms = best_rms;
   return best;
 }
 
 /// The search of a new effect of `kind` with re-identification (EffectSearch; `s` has all but the
 /// block set): a coarse scan of the effect's main parameter on a grid scaled by the data (largest
 /// command v_max, gain kp), with the equation-error start `e` among the points, then Nelder-Mead
-/// from the two best points. Returns false when no evaluation succeeded.
+/// from the best point (and the second best when nearly as good). Returns false when no evaluation succeeded.
 bool search_reidentified(EffectKind kind, const Effects& e, const DataScales& sc, double kp,
                          EffectSearch& s) {
   const ParamBlock block = param_block(kind, e, sc);
@@ -623,14 +626,17 @@ bool search_reidentified(EffectKind kind, const Effects& e, const DataScales& sc
     scored.push_back({s.evaluate(grid[g].data()), g});
   }
   std::sort(scored.begin(), scored.end());
+  // Nelder-Mead from the best point, and from the second best when it is nearly as good (a
+  // second valley).
   std::vector<std::vector<double>> starts;
   for (std::size_t k = 0; k < std::min<std::size_t>(2, scored.size()); ++k) {
-    if (scored[k].first < 1e29) starts.push_back(grid[scored[k].second]);
+    if (scored[k].first < 1e29 && (k == 0 || scored[k].first <= 1.2 * scored[0].first))
+      starts.push_back(grid[scored[k].second]);
   }
   // Steps no larger than the grid's spacing near the start.
   if (kind == EffectKind::kTimeDelay && !starts.empty()) step[0] = 0.4 * starts.front()[0];
   if (kind == EffectKind::kDeadzone && !starts.empty()) step[0] = 0.4 * starts.front()[0];
-  search_effect(s, starts, step, 8 + 8 * static_cast<int>(block.params.size()));
+  search_effect(s, starts, step, 6 + 6 * static_cast<int>(block.params.size()));
   s.block = nullptr;
   return std::isfinite(s.best_rms);
 }
@@ -927,13 +933,48 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
     });
     const TorqueResidual tr = torque_residual(runs, fit_runs, fit_sims, current);
     double none_train_rms = kNaN;
+    std::map<std::size_t, std::pair<std::vector<ParamBlock>, std::vector<double>>> pending;
+    double none_unit_rms = kNaN;  // `none`'s RMS over the fit runs with its α-model, unit factors
     const std::optional<AlphaModel> none_alpha =
         reid.usable() ? best_variant(reid, current, runs, fit_runs, unit_scales, opt, true,
-                                     alpha ? alpha : std::optional<AlphaModel>(runs_in.front().model.alpha))
+                                     alpha ? alpha : std::optional<AlphaModel>(runs_in.front().model.alpha),
+                                     &none_unit_rms)
                       : std::nullopt;
 
+      // 2-fold cross-validation of a candidate fitted on all fit runs (`values`, `blocks`).
+      auto cross_validate = [&](CandidateScore& cand, const std::vector<ParamBlock>& blocks,
+                                const std::vector<double>& values) {
+        const Effects base = current;
+        double ss = 0.0, n = 0.0;
+        for (int f = 0; f < 2; ++f) {
+          OutputErrorProblem pf = make_problem(runs, fold[f], blocks, base, ms, opt, cand.alpha);
+          for (std::size_t j = 0; j < pf.parameters.size(); ++j)
+            pf.parameters[j].initial = std::clamp(values[j], pf.parameters[j].lower, pf.parameters[j].upper);
+          OutputErrorOptions of;
+          of.threads = opt.threads;
+          of.max_iterations = 8;
+          const OutputErrorResult r = fit_output_error(pf, of);
+          const std::vector<double>& p = r.ok ? r.values : values;
+          const Effects ef = effects_of(blocks, base, ms, p);
+          const std::vector<std::size_t>& held = fold[1 - f];
+          const auto rr = run_rms_with(runs, held, ef, scales_of(ms, p), opt, cand.alpha);
+          const double fr = pooled_rms(runs, rr, held);
+          cand.fold_scores[static_cast<std::size_t>(1 - f)] = std::isfinite(fr) ? fr : kInf;
+          for (std::size_t i : held) {
+            const double m = static_cast<double>(runs[i].data->size());
+            ss += std::isfinite(rr[i]) ? rr[i] * rr[i] * m : kInf;
+            n += m;
+          }
+        }
+        cand.score = n > 0 ? std::sqrt(ss / n) : kInf;
+        cand.cross_validated = true;
+        cand.message.clear();
+      };
+      // A candidate fitted on all fit runs; cross-validated now when `cv` (else its blocks and
+      // values are left in *later for cross_validate()).
       auto fit_candidate = [&](EffectKind kind, const Effects& e, const ModelScales& start_scales,
-                               const std::optional<AlphaModel>& cand_alpha, bool searched) {
+                               const std::optional<AlphaModel>& cand_alpha, bool searched, bool cv,
+                               std::pair<std::vector<ParamBlock>, std::vector<double>>* later) {
       CandidateScore cand;
       cand.effect = kind;
       std::vector<ParamBlock> blocks;
@@ -944,7 +985,7 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
       OutputErrorProblem pr = make_problem(runs, fit_runs, blocks, base, start_scales, opt, cand_alpha);
       OutputErrorOptions oo;
       oo.threads = opt.threads;
-      oo.max_iterations = 15;
+      oo.max_iterations = searched ? 10 : 15;  // the search has found the valley
       // The command-path effects have cost functions with several minima (a delay against a
       // lightly damped resonance; a limit or deadzone that is inactive at its start): extra starts
       // (unless the search above has already looked).
@@ -980,29 +1021,14 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
         cand.fold_scores = {full.rms, full.rms};
         cand.message = "training RMS not below (1 − significance/2) × that of none: not cross-validated";
         cand.cross_validated = false;
+      } else if (can_cv && cv) {
+        cross_validate(cand, blocks, full.values);
       } else if (can_cv) {
-        double ss = 0.0, n = 0.0;
-        for (int f = 0; f < 2; ++f) {
-          OutputErrorProblem pf = make_problem(runs, fold[f], blocks, base, ms, opt, cand_alpha);
-          for (std::size_t j = 0; j < pf.parameters.size(); ++j)
-            pf.parameters[j].initial = std::clamp(full.values[j], pf.parameters[j].lower, pf.parameters[j].upper);
-          OutputErrorOptions of = oo;
-          of.max_iterations = 8;
-          of.extra_starts.clear();
-          const OutputErrorResult r = fit_output_error(pf, of);
-          const std::vector<double>& p = r.ok ? r.values : full.values;
-          const Effects ef = effects_of(blocks, base, ms, p);
-          const std::vector<std::size_t>& held = fold[1 - f];
-          const auto rr = run_rms_with(runs, held, ef, scales_of(ms, p), opt, cand_alpha);
-          const double fr = pooled_rms(runs, rr, held);
-          cand.fold_scores[static_cast<std::size_t>(1 - f)] = std::isfinite(fr) ? fr : kInf;
-          for (std::size_t i : held) {
-            const double m = static_cast<double>(runs[i].data->size());
-            ss += std::isfinite(rr[i]) ? rr[i] * rr[i] * m : kInf;
-            n += m;
-          }
-        }
-        cand.score = n > 0 ? std::sqrt(ss / n) : kInf;
+        cand.score = full.rms;
+        cand.fold_scores = {full.rms, full.rms};
+        cand.cross_validated = false;
+        cand.message = "not cross-validated: its training RMS is not among the two lowest";
+        if (later != nullptr) *later = {blocks, full.values};
       } else {
         cand.score = full.rms;
         cand.fold_scores = {full.rms, full.rms};
@@ -1073,13 +1099,45 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
         if (search_reidentified(kind, e, sc, runs_in.front().controller.kp, search)) {
           e = search.best;
           start_scales = unit_scales;
-          cand_alpha = best_variant(reid, e, runs, fit_runs, unit_scales, opt, false);
+          double found_rms = kNaN;
+          cand_alpha = best_variant(reid, e, runs, fit_runs, unit_scales, opt, false, std::nullopt,
+                                    &found_rms);
           searched = true;
+          // Not even (1 − significance/2) of `none`'s error on the fit runs with both at unit
+          // factors: it cannot be named, so it is not fitted further (saves its output error).
+          if (std::isfinite(none_unit_rms) &&
+              !(found_rms <= (1.0 - 0.5 * opt.significance) * none_unit_rms)) {
+            cand.ok = true;
+            cand.reidentified = true;
+            cand.effects = e;
+            cand.scales = unit_scales;
+            cand.alpha = cand_alpha;
+            cand.training_rms = cand.score = found_rms;
+            cand.fold_scores = {found_rms, found_rms};
+            cand.cross_validated = false;
+            cand.message = "search RMS not below (1 − significance/2) × that of none: not fitted further";
+            rd.candidates.push_back(cand);
+            continue;
+          }
         }
       }
-      CandidateScore fitted = fit_candidate(kind, e, start_scales, cand_alpha, searched);
+      CandidateScore fitted = fit_candidate(kind, e, start_scales, cand_alpha, searched,
+                                            kind == EffectKind::kNone, &pending[rd.candidates.size()]);
       if (kind == EffectKind::kNone && fitted.ok) none_train_rms = fitted.training_rms;
       rd.candidates.push_back(fitted);
+    }
+    // Only the candidates with the two lowest training RMS can be named (the winner must beat
+    // `none` by a margin on data it was not fitted on): those are cross-validated.
+    {
+      std::vector<std::size_t> order;
+      for (std::size_t k = 0; k < rd.candidates.size(); ++k) {
+        if (!pending[k].second.empty()) order.push_back(k);
+      }
+      std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+        return rd.candidates[a].training_rms < rd.candidates[b].training_rms;
+      });
+      if (order.size() > 2) order.resize(2);
+      for (std::size_t k : order) cross_validate(rd.candidates[k], pending[k].first, pending[k].second);
     }
     // The winner: lowest score; named only if significantly better than `none` in both folds.
     const CandidateScore* none = nullptr;
@@ -1128,7 +1186,8 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
                                        static_cast<std::ptrdiff_t>(best->alpha->n_breakpoints));
       const std::optional<AlphaModel> twin_alpha = reid.fit_at(current, bp);
       if (twin_alpha) {
-        CandidateScore twin = fit_candidate(EffectKind::kNone, current, unit_scales, twin_alpha, false);
+        CandidateScore twin =
+            fit_candidate(EffectKind::kNone, current, unit_scales, twin_alpha, false, true, nullptr);
         if (twin.ok) {
           named = beats(*best, twin);
           rd.none_at_winner_breakpoints = twin;
