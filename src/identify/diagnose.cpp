@@ -588,7 +588,7 @@ bool search_reidentified(EffectKind kind, const Effects& e, const DataScales& sc
   }
   switch (kind) {
     case EffectKind::kCoulombFriction:
-      for (double f : {0.01, 0.03, 0.1, 0.3}) grid.push_back({f * vm});
+      for (double f : {0.005, 0.01, 0.02, 0.04, 0.08, 0.16, 0.3}) grid.push_back({f * vm});
       break;
     case EffectKind::kOffsetTorque:
       grid.push_back({0.0});
@@ -598,7 +598,8 @@ bool search_reidentified(EffectKind kind, const Effects& e, const DataScales& sc
       // error start from a model that absorbed the spring can have the wrong sign); θ0 folded.
       // θ0 = 0 (a pure spring over a small range of θ) and the start's θ0.
       const double th0 = std::remainder(block.start[1], kTwoPi / 2.0);
-      for (double f : {-0.3, -0.1, 0.05, 0.1, 0.2, 0.3, 0.6}) {
+      // Ratios of about 1.4: a spring the model has absorbed has a narrow valley.
+      for (double f : {-0.3, -0.1, 0.035, 0.05, 0.07, 0.1, 0.14, 0.2, 0.28, 0.4, 0.56}) {
         grid.push_back({f * kp, 0.0});
         if (std::abs(th0) > 0.05) grid.push_back({f * kp, th0});
       }
@@ -1156,12 +1157,45 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
     }
     // Parsimony: among candidates within 5 % of the best score, the one with fewest parameters
     // (an offset torque is also a gravity term with θ0 = −π/2 over a small range of θ).
+    // A simpler cross-validated candidate is first refitted at the best one's breakpoints, so
+    // that it is not beaten by a luckier breakpoint set alone.
+    std::vector<CandidateScore> refitted;  // kept alive: `best` may point here
+    refitted.reserve(rd.candidates.size());
     if (best != nullptr) {
+      const CandidateScore* chosen = best;
       for (const auto& c : rd.candidates) {
         if (!c.ok || !c.cross_validated || c.effect == EffectKind::kNone) continue;
-        if (c.score <= 1.05 * best->score &&
-            effect_parameters(c.effect).size() < effect_parameters(best->effect).size()) {
-          best = &c;
+        if (effect_parameters(c.effect).size() >= effect_parameters(best->effect).size()) continue;
+        const CandidateScore* simpler = &c;
+        if (best->alpha && c.alpha && reid.usable() && c.alpha->alpha != best->alpha->alpha) {
+          const std::vector<double> bp(best->alpha->alpha.begin(),
+                                       best->alpha->alpha.begin() +
+                                           static_cast<std::ptrdiff_t>(best->alpha->n_breakpoints));
+          const std::optional<AlphaModel> a = reid.fit_at(c.effects, bp);
+          if (a) {
+            CandidateScore r = fit_candidate(c.effect, c.effects, unit_scales, a, true, true, nullptr);
+            if (r.ok && r.score < c.score) {
+              refitted.push_back(std::move(r));
+              simpler = &refitted.back();
+            }
+          }
+        }
+        if (simpler->score <= 1.05 * best->score &&
+            (chosen == best ||
+             effect_parameters(simpler->effect).size() < effect_parameters(chosen->effect).size())) {
+          chosen = simpler;
+        }
+      }
+      best = chosen;
+      if (!refitted.empty() && best >= refitted.data() && best < refitted.data() + refitted.size()) {
+        // The table shows the simpler candidate as refitted.
+        for (auto& c : rd.candidates) {
+          if (c.effect == best->effect) {
+            c = *best;
+            c.message = "refitted at the breakpoints of the candidate it was preferred to";
+            best = &c;
+            break;
+          }
         }
       }
     }
@@ -1171,6 +1205,12 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
              c.fold_scores[1] <= keep * ref.fold_scores[1];
     };
     bool named = best != nullptr && best->effect != EffectKind::kNone;
+    // A delay shorter than one controller tick is below what the digital loop resolves: its
+    // sample-and-hold and the α filter's timing already differ from the plant's by as much.
+    if (named && best->effect == EffectKind::kTimeDelay && opt.simulation.loop_period_s > 0.0 &&
+        best->effects.delay_s < opt.simulation.loop_period_s) {
+      named = false;
+    }
     if (named) {
       named = beats(*best, *none) &&
               // ... and the whole runs agree: the error over all samples of all runs drops too.
