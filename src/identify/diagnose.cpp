@@ -6,7 +6,6 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
-#include <map>
 #include <thread>
 
 #include <Eigen/Dense>
@@ -475,12 +474,9 @@ struct EffectSearch {
   ModelScales unit;  ///< factors 1, shaped like the model's
   double best_rms = kInf;
   Effects best;
-  std::optional<AlphaModel> best_alpha;
-  int evaluations = 0;
 
   /// Pooled RMS over the fit runs of the model with the block's parameters x.
   double evaluate(const double* x) {
-    ++evaluations;
     Effects e = base;
     for (std::size_t j = 0; j < block->params.size(); ++j) e.*(block->params[j].member) = x[j];
     const std::optional<AlphaModel> alpha = reid->fit(e);
@@ -490,7 +486,6 @@ struct EffectSearch {
     if (r < best_rms) {
       best_rms = r;
       best = e;
-      best_alpha = alpha;
     }
     return r;
   }
@@ -581,10 +576,8 @@ bool search_reidentified(EffectKind kind, const Effects& e, const DataScales& sc
     if (name == "gravity_v") st = 0.1 * kp;
     if (name == "gravity_theta0_rad" || name == "cogging_phase_rad") st = 0.5;
     if (name == "cogging_period_rad") st = 0.02 * x;
-    if (name == "delay_s") st = std::max(0.3 * x, 0.0005);
     if (name == "saturation_v") st = 0.1 * vm;
-    if (name == "deadzone_v") st = std::max(0.3 * x, 0.005 * vm);
-    step.push_back(st);
+    step.push_back(st);  // delay and deadzone: set from the chosen start below
   }
   switch (kind) {
     case EffectKind::kCoulombFriction:
@@ -594,11 +587,11 @@ bool search_reidentified(EffectKind kind, const Effects& e, const DataScales& sc
       grid.push_back({0.0});
       break;
     case EffectKind::kGravity: {
-      // A spring g·cos θ0 of either sign, up to about the controller's stiffness kp (the equation-
-      // error start from a model that absorbed the spring can have the wrong sign); θ0 folded.
-      // θ0 = 0 (a pure spring over a small range of θ) and the start's θ0.
+      // A spring g·cos θ0 of either sign, up to about the controller's stiffness kp, in ratios of
+      // about 1.4 (a spring the model has absorbed has a narrow valley), at θ0 = 0 (a pure spring
+      // over a small range of θ) and at the start's θ0 folded (the equation-error start from a
+      // model that absorbed the spring can have the wrong sign).
       const double th0 = std::remainder(block.start[1], kTwoPi / 2.0);
-      // Ratios of about 1.4: a spring the model has absorbed has a narrow valley.
       for (double f : {-0.3, -0.1, 0.035, 0.05, 0.07, 0.1, 0.14, 0.2, 0.28, 0.4, 0.56}) {
         grid.push_back({f * kp, 0.0});
         if (std::abs(th0) > 0.05) grid.push_back({f * kp, th0});
@@ -934,7 +927,8 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
     });
     const TorqueResidual tr = torque_residual(runs, fit_runs, fit_sims, current);
     double none_train_rms = kNaN;
-    std::map<std::size_t, std::pair<std::vector<ParamBlock>, std::vector<double>>> pending;
+    // Candidates fitted but not yet cross-validated: blocks and values, by catalogue position.
+    std::vector<std::pair<std::vector<ParamBlock>, std::vector<double>>> pending(catalogue.size());
     double none_unit_rms = kNaN;  // `none`'s RMS over the fit runs with its α-model, unit factors
     const std::optional<AlphaModel> none_alpha =
         reid.usable() ? best_variant(reid, current, runs, fit_runs, unit_scales, opt, true,
@@ -942,40 +936,40 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
                                      &none_unit_rms)
                       : std::nullopt;
 
-      // 2-fold cross-validation of a candidate fitted on all fit runs (`values`, `blocks`).
-      auto cross_validate = [&](CandidateScore& cand, const std::vector<ParamBlock>& blocks,
-                                const std::vector<double>& values) {
-        const Effects base = current;
-        double ss = 0.0, n = 0.0;
-        for (int f = 0; f < 2; ++f) {
-          OutputErrorProblem pf = make_problem(runs, fold[f], blocks, base, ms, opt, cand.alpha);
-          for (std::size_t j = 0; j < pf.parameters.size(); ++j)
-            pf.parameters[j].initial = std::clamp(values[j], pf.parameters[j].lower, pf.parameters[j].upper);
-          OutputErrorOptions of;
-          of.threads = opt.threads;
-          of.max_iterations = 8;
-          const OutputErrorResult r = fit_output_error(pf, of);
-          const std::vector<double>& p = r.ok ? r.values : values;
-          const Effects ef = effects_of(blocks, base, ms, p);
-          const std::vector<std::size_t>& held = fold[1 - f];
-          const auto rr = run_rms_with(runs, held, ef, scales_of(ms, p), opt, cand.alpha);
-          const double fr = pooled_rms(runs, rr, held);
-          cand.fold_scores[static_cast<std::size_t>(1 - f)] = std::isfinite(fr) ? fr : kInf;
-          for (std::size_t i : held) {
-            const double m = static_cast<double>(runs[i].data->size());
-            ss += std::isfinite(rr[i]) ? rr[i] * rr[i] * m : kInf;
-            n += m;
-          }
+    // 2-fold cross-validation of a candidate fitted on all fit runs (`values`, `blocks`).
+    auto cross_validate = [&](CandidateScore& cand, const std::vector<ParamBlock>& blocks,
+                              const std::vector<double>& values) {
+      const Effects base = current;
+      double ss = 0.0, n = 0.0;
+      for (int f = 0; f < 2; ++f) {
+        OutputErrorProblem pf = make_problem(runs, fold[f], blocks, base, ms, opt, cand.alpha);
+        for (std::size_t j = 0; j < pf.parameters.size(); ++j)
+          pf.parameters[j].initial = std::clamp(values[j], pf.parameters[j].lower, pf.parameters[j].upper);
+        OutputErrorOptions of;
+        of.threads = opt.threads;
+        of.max_iterations = 8;
+        const OutputErrorResult r = fit_output_error(pf, of);
+        const std::vector<double>& p = r.ok ? r.values : values;
+        const Effects ef = effects_of(blocks, base, ms, p);
+        const std::vector<std::size_t>& held = fold[1 - f];
+        const auto rr = run_rms_with(runs, held, ef, scales_of(ms, p), opt, cand.alpha);
+        const double fr = pooled_rms(runs, rr, held);
+        cand.fold_scores[static_cast<std::size_t>(1 - f)] = std::isfinite(fr) ? fr : kInf;
+        for (std::size_t i : held) {
+          const double m = static_cast<double>(runs[i].data->size());
+          ss += std::isfinite(rr[i]) ? rr[i] * rr[i] * m : kInf;
+          n += m;
         }
-        cand.score = n > 0 ? std::sqrt(ss / n) : kInf;
-        cand.cross_validated = true;
-        cand.message.clear();
-      };
-      // A candidate fitted on all fit runs; cross-validated now when `cv` (else its blocks and
-      // values are left in *later for cross_validate()).
-      auto fit_candidate = [&](EffectKind kind, const Effects& e, const ModelScales& start_scales,
-                               const std::optional<AlphaModel>& cand_alpha, bool searched, bool cv,
-                               std::pair<std::vector<ParamBlock>, std::vector<double>>* later) {
+      }
+      cand.score = n > 0 ? std::sqrt(ss / n) : kInf;
+      cand.cross_validated = true;
+      cand.message.clear();
+    };
+    // A candidate fitted on all fit runs; cross-validated now when `cv` (else its blocks and
+    // values are left in *later for cross_validate()).
+    auto fit_candidate = [&](EffectKind kind, const Effects& e, const ModelScales& start_scales,
+                             const std::optional<AlphaModel>& cand_alpha, bool searched, bool cv,
+                             std::pair<std::vector<ParamBlock>, std::vector<double>>* later) {
       CandidateScore cand;
       cand.effect = kind;
       std::vector<ParamBlock> blocks;
@@ -1037,7 +1031,7 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
       const auto rr_all = run_rms_with(runs_in, all, cand.effects, cand.scales, opt, cand_alpha);
       cand.error_after = pooled_rms(runs_in, rr_all, all);
       return cand;
-      };
+    };
     for (EffectKind kind : catalogue) {
       CandidateScore cand;
       cand.effect = kind;

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 namespace alphainv {
 
@@ -31,6 +32,7 @@ struct Objective {
   std::vector<double> scale;  ///< the search runs on x = value / scale
   double best = std::numeric_limits<double>::infinity();
   Effects best_effects;
+  DatasetFit best_fit;  ///< the fit at best_effects (kept, not fitted again)
   int evaluations = 0;
 
   Effects effects_at(const double* x) const {
@@ -49,13 +51,14 @@ struct Objective {
       return 1e300;  // outside the effect's range
     }
     o.progress = nullptr;
-    const DatasetFit fit = fit_dataset(*dataset, *data, o);
+    DatasetFit fit = fit_dataset(*dataset, *data, o);
     if (!fit.alpha.ok) return 1e300;
     const double sse = alpha_sse(fit, nullptr);
     if (!std::isfinite(sse)) return 1e300;
     if (sse < best) {
       best = sse;
       best_effects = o.effects;
+      best_fit = std::move(fit);
     }
     return sse;
   }
@@ -129,11 +132,8 @@ DatasetFit refine_effects(const Dataset& dataset, const std::vector<RunData>& da
     return start_fit;
   }
   r.refined = obj.best_effects;
-  o.effects = obj.best_effects;
-  DatasetFit fit = fit_dataset(dataset, data, o);
-  ++r.evaluations;
-  r.sse_refined = alpha_sse(fit, &r.runs_scored);
-  return fit;
+  r.sse_refined = alpha_sse(obj.best_fit, &r.runs_scored);
+  return std::move(obj.best_fit);
 }
 
 }  // namespace alphainv
