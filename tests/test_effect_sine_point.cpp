@@ -99,38 +99,55 @@ TEST(EffectSinePoint, EffectFreeRunsReadThePlant) {
   EXPECT_LT(e.beta, 0.01);
 }
 
+/// read_with_and_without(hidden): the uncorrected points off by more than naive_min in C or β̃,
+/// the corrected ones within c_max and beta_max.
+Readings expect_corrected(const Effects& hidden, double naive_min, double c_max, double beta_max) {
+  const Readings r = read_with_and_without(hidden);
+  EXPECT_GT(std::max(r.naive.c, r.naive.beta), naive_min);
+  EXPECT_LT(r.corrected.c, c_max);
+  EXPECT_LT(r.corrected.beta, beta_max);
+  return r;
+}
+
 TEST(EffectSinePoint, AGravitySpringIsTakenOutOfCAndBeta) {
   // −g·sin θ is a spring: read as if the input were v alone it shifts C and β̃ by 1/(1 − k/ω²)-like
   // factors at low frequency; with the spring in the input the points read the plant again.
   Effects g;
   g.gravity_v = 0.3;
-  const auto [naive, corrected] = read_with_and_without(g);
-  EXPECT_GT(std::max(naive.c, naive.beta), 0.1);
-  EXPECT_LT(corrected.c, 0.02);
-  EXPECT_LT(corrected.beta, 0.02);
+  expect_corrected(g, 0.1, 0.02, 0.02);
 }
 
 TEST(EffectSinePoint, ATimeDelayIsTakenOutOfC) {
   Effects d;
   d.delay_s = 0.004;
-  const auto [naive, corrected] = read_with_and_without(d);
-  EXPECT_GT(naive.c, 0.1);
-  EXPECT_LT(corrected.c, 0.02);
-  EXPECT_LT(corrected.beta, 0.02);
+  EXPECT_GT(expect_corrected(d, 0.1, 0.02, 0.02).naive.c, 0.1);
 }
 
 TEST(EffectSinePoint, CoulombFrictionIsTakenOutOfC) {
-  // Its describing function adds 4·β̃·Fc/(π·ω·A0) to C: large at low frequency.
+  // Its describing function adds 4·β̃·Fc/(π·ω·A0) to C: large at low frequency. It holds for the
+  // fundamental only; the friction's harmonics modulate α (and so C) within a period, which
+  // leaves a few per cent (4.8 % at 2 Hz here, against +260 % uncorrected at 0.5 Hz).
   Effects c;
   c.coulomb_v = 0.01;
-  const auto [naive, corrected] = read_with_and_without(c);
-  EXPECT_GT(naive.c, 0.1);
-  // The describing function holds for the fundamental only; the friction's harmonics modulate α
-  // (and so C) within a period, which leaves a few per cent (4.8 % at 2 Hz here, against +260 %
-  // uncorrected at 0.5 Hz).
-  EXPECT_LT(corrected.c, 0.06);
-  EXPECT_LT(corrected.beta, 0.03);
-  EXPECT_LT(corrected.c, 0.1 * naive.c);
+  const Readings r = expect_corrected(c, 0.1, 0.06, 0.03);
+  EXPECT_LT(r.corrected.c, 0.1 * r.naive.c);
+}
+
+TEST(EffectSinePoint, ADeadzoneIsTakenOutOfCAndBeta) {
+  // Z(v) = sign(v)·max(|v| − d, 0) lowers the input's fundamental (its describing function) and its
+  // α (flat near zero); read with the deadzone, the gain and α are the plant input's. Uncorrected:
+  // +137 % at 0.5 Hz. With α read as the command's (ω²·|v|²) C was 8.8 % off at 2 Hz; with the
+  // deadzone's α, 1.9 % there and 6 % at 7 Hz (the input's harmonics modulate α within a period).
+  Effects d;
+  d.deadzone_v = 0.01;
+  expect_corrected(d, 0.5, 0.065, 0.045);
+}
+
+TEST(EffectSinePoint, ASaturationIsTakenOutOfCAndBeta) {
+  // The limit clips the command at 7 Hz: β̃ read 18 % low uncorrected.
+  Effects d;
+  d.saturation_v = 0.12;
+  expect_corrected(d, 0.1, 0.02, 0.01);
 }
 
 }  // namespace

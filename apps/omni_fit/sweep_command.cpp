@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <random>
 #include <sstream>
 
 #include <CLI/CLI.hpp>
@@ -26,26 +27,40 @@ struct SweepCase {
   double magnitude = 0.0;  ///< the effect's main parameter (see apply)
   double noise_std_rad = 5e-5;
   std::uint64_t seed = 1;
+  /// --vary: the magnitude's factor and the other parameters (cogging period and phase, gravity
+  /// θ0), drawn from the seed; otherwise factor 1, period 0.02 rad, phase 0.5 rad, θ0 = 0.
+  double factor = 1.0, cogging_period_rad = 0.02, cogging_phase_rad = 0.5, gravity_theta0_rad = 0.0;
 };
+
+/// The --vary draws of a case (deterministic in the seed and the effect).
+void draw_variation(SweepCase& c) {
+  std::mt19937_64 rng(c.seed * 1315423911u + static_cast<std::uint64_t>(c.effect) * 2654435761u);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  c.factor = std::exp(std::log(0.6) + u(rng) * (std::log(1.6) - std::log(0.6)));  // 0.6 … 1.6
+  c.cogging_period_rad = 0.012 + u(rng) * 0.018;  // 0.012 … 0.03 rad: 5 … 12 periods over ±0.07
+  c.cogging_phase_rad = -3.14159 + u(rng) * 6.28318;
+  c.gravity_theta0_rad = -0.5 + u(rng) * 1.0;
+}
 
 /// Sets the hidden effect on the plant. Magnitudes are in the plant's units (V, s, rad).
 void apply(const SweepCase& c, Effects& e) {
   switch (c.effect) {
     case EffectKind::kNone: break;
-    case EffectKind::kCoulombFriction: e.coulomb_v = c.magnitude; break;
-    case EffectKind::kOffsetTorque: e.offset_v = c.magnitude; break;
+    case EffectKind::kCoulombFriction: e.coulomb_v = c.magnitude * c.factor; break;
+    case EffectKind::kOffsetTorque: e.offset_v = c.magnitude * c.factor; break;
     case EffectKind::kGravity:
-      e.gravity_v = c.magnitude;
-      e.gravity_theta0_rad = 0.0;
+      e.gravity_v = c.magnitude * c.factor;
+      e.gravity_theta0_rad = c.gravity_theta0_rad;
       break;
     case EffectKind::kCogging:
-      e.cogging_v = c.magnitude;
-      e.cogging_period_rad = 0.02;
-      e.cogging_phase_rad = 0.5;
+      e.cogging_v = c.magnitude * c.factor;
+      e.cogging_period_rad = c.cogging_period_rad;
+      e.cogging_phase_rad = c.cogging_phase_rad;
       break;
-    case EffectKind::kTimeDelay: e.delay_s = c.magnitude; break;
-    case EffectKind::kSaturation: e.saturation_v = c.magnitude; break;
-    case EffectKind::kDeadzone: e.deadzone_v = c.magnitude; break;
+    case EffectKind::kTimeDelay: e.delay_s = c.magnitude * c.factor; break;
+    // A larger factor is a stronger effect: a lower limit.
+    case EffectKind::kSaturation: e.saturation_v = c.magnitude / c.factor; break;
+    case EffectKind::kDeadzone: e.deadzone_v = c.magnitude * c.factor; break;
   }
 }
 
@@ -72,6 +87,10 @@ CLI::App* add_sweep_subcommand(CLI::App& app, SweepCommandOptions& o) {
   c->add_option("--seeds", o.seeds, "seeds (pose, noise) of the generated datasets")->capture_default_str();
   c->add_option("--effects", o.effects, "hidden effects to generate (catalogue names, none); default all");
   c->add_flag("--quick", o.quick, "one magnitude and one noise level per effect");
+  c->add_flag("--vary", o.vary,
+              "draw from each seed a factor 0.6-1.6 on the magnitude and the effect's other "
+              "parameters (cogging period 0.012-0.03 rad and phase, gravity theta0 within "
+              "+-0.5 rad); default: fixed ones");
   c->add_flag("--require", o.require,
               "exit 1 unless every case names its effect (cutting the RMS error by >= 30 %) and "
               "every effect-free case says none");
@@ -107,6 +126,9 @@ int run_sweep(const SweepCommandOptions& o) {
         for (double m : mags)
           for (int r = 0; r < repeat; ++r)
             cases.push_back({k, m, noise, seed + 1000u * static_cast<std::uint64_t>(r)});
+  if (o.vary) {
+    for (SweepCase& c : cases) draw_variation(c);
+  }
   }
   std::map<std::pair<int, int>, int> matrix;  // (true, named) → count
   int right = 0, named_effect = 0, cut_ok = 0, none_cases = 0, none_right = 0;
@@ -139,11 +161,33 @@ int run_sweep(const SweepCommandOptions& o) {
       ++named_effect;
       cut_ok += cut >= 0.30;
     }
+    const double magnitude =
+        c.effect == EffectKind::kSaturation ? c.magnitude / c.factor : c.magnitude * c.factor;
     std::fprintf(stderr, "[%zu/%zu] %-16s %-8.3g noise %.0e seed %llu -> %-16s RMS %.3g -> %.3g (%.0f %%) %.1f s%s\n",
-                 ci + 1, cases.size(), effect_name(c.effect), c.magnitude, c.noise_std_rad,
+                 ci + 1, cases.size(), effect_name(c.effect),
+                 magnitude,
+                 c.noise_std_rad,
                  static_cast<unsigned long long>(c.seed), effect_name(named), r.error_before,
                  r.error_after, 100.0 * cut, r.seconds, ok_name ? "" : "  WRONG");
-    jcases.push_back({{"effect", effect_name(c.effect)}, {"magnitude", c.magnitude},
+    Effects hidden;
+    apply(c, hidden);
+    // The same dataset from the command line (omni_gen), to look at one case closely.
+    std::ostringstream gen_cmd;
+    gen_cmd.precision(6);
+    gen_cmd << "omni_gen paper -o DIR --seed " << c.seed << " --pose " << c.seed % poses.size()
+            << (hidden.coulomb_v > 0.0 ? "" : " --no-coulomb") << " --noise-std " << c.noise_std_rad;
+    const std::pair<const char*, double> gen_effects[] = {
+        {"offset", hidden.offset_v}, {"gravity", hidden.gravity_v},
+        {"gravity_theta0", hidden.gravity_theta0_rad}, {"cogging", hidden.cogging_v},
+        {"cogging_period", hidden.cogging_v != 0.0 ? hidden.cogging_period_rad : 0.0},
+        {"cogging_phase", hidden.cogging_v != 0.0 ? hidden.cogging_phase_rad : 0.0},
+        {"coulomb", hidden.coulomb_v}, {"delay", hidden.delay_s}, {"deadzone", hidden.deadzone_v},
+        {"saturation", std::isfinite(hidden.saturation_v) ? hidden.saturation_v : 0.0}};
+    for (const auto& [name, x] : gen_effects) {
+      if (x != 0.0) gen_cmd << " --effect " << name << "=" << x;
+    }
+    jcases.push_back({{"effect", effect_name(c.effect)}, {"magnitude", magnitude},
+                      {"hidden", effects_text(hidden)}, {"generate", gen_cmd.str()},
                       {"noise_std_rad", c.noise_std_rad}, {"seed", c.seed},
                       {"named", effect_name(named)}, {"error_before", r.error_before},
                       {"error_after", r.error_after}, {"seconds", r.seconds}});
@@ -156,6 +200,7 @@ int run_sweep(const SweepCommandOptions& o) {
      << cases.size() << " cases, seeds";
   for (auto s : o.seeds) md << " " << s;
   md << ", " << (o.quick ? "one magnitude, noise 5e-5 rad" : "two magnitudes, noise 5e-5 and 2e-4 rad")
+     << (o.vary ? ", magnitudes × 0.6-1.6 and other parameters drawn from the seed (--vary)" : "")
      << "; " << static_cast<int>(seconds) << " s.\n\n| hidden \\ named |";
   for (EffectKind k : kAllEffectKinds) md << " " << effect_name(k) << " |";
   md << "\n|---|";

@@ -14,6 +14,7 @@ struct SweepCommandOptions {
   std::vector<std::uint64_t> seeds{1, 2};  ///< seeds of the generated datasets
   std::vector<std::string> effects;        ///< catalogue names to generate; empty: all and none
   bool quick = false;      ///< one magnitude, one noise level
+  bool vary = false;       ///< draw magnitude factors and the effects' other parameters from the seed
   bool require = false;    ///< exit 1 unless every case is named right (and cut ≥ 30 %)
   bool json = false;
   unsigned threads = 0;

@@ -105,6 +105,7 @@ struct PaperArgs {
   double quantisation_rad = std::nan("");
   bool no_coulomb = false;
   bool truth_columns = false;
+  int pose = -1;  // -1: the paper's poses; K: only sine pose K (sine and square runs there)
 };
 
 int run_paper(const PaperArgs& args, const std::string& cmd) {
@@ -119,6 +120,15 @@ int run_paper(const PaperArgs& args, const std::string& cmd) {
   ExperimentPlanOptions options = paper_plan_options(seed);
   options.generator_command = cmd;
   options.record_truth_columns = args.truth_columns;
+  if (args.pose >= 0) {
+    const auto poses = paper_sine_poses();
+    if (static_cast<std::size_t>(args.pose) >= poses.size()) {
+      return fail("--pose", "expected 0.." + std::to_string(poses.size() - 1) + ", got " +
+                                std::to_string(args.pose));
+    }
+    options.sine_poses = {poses[static_cast<std::size_t>(args.pose)]};
+    options.square_poses = options.sine_poses;
+  }
   PlantEffects& effects = options.plant.effects;
   if (args.no_coulomb) effects.coulomb_v = 0.0;
   if (!std::isnan(args.noise_std_rad)) options.plant.measurement.noise_std_rad = args.noise_std_rad;
@@ -232,6 +242,11 @@ int main(int argc, char** argv) {
       ->add_option("--quantisation", args.quantisation_rad,
                    "encoder quantisation step [rad], 0 = none (bundled: 1.5e-4)")
       ->check(non_negative);
+  paper
+      ->add_option("--pose", args.pose,
+                   "only pose K of the paper's 9 sine poses, sine and square runs there (10 runs: "
+                   "what `omni_fit sweep` diagnoses; seed s uses pose s mod 9)")
+      ->type_name("K");
   paper->add_flag("--no-coulomb", args.no_coulomb, "turn the bundled Coulomb friction off");
   paper->add_flag("--truth-columns", args.truth_columns,
                   "add the columns theta_true, theta_dot_true, v_eff, alpha_true, c_true, "

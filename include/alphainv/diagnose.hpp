@@ -20,9 +20,11 @@
 /// 3. Each candidate is scored by 2-fold cross-validation in time (fitted on the first half of
 ///    every fit window, RMS error on the second half, and the other way round), so a bigger model
 ///    does not win by default. The best candidate is named only when its cross-validated error is below
-///    (1 − significance) times that of `none` in both folds, and its RMS over all samples of all
-///    runs is below (1 − significance/2) times that of the model before, and it also beats `none`
-///    refitted at the winner's α-model breakpoints; otherwise `none`. Candidates whose search or
+///    (1 − significance) times that of `none` in both folds, it also beats `none` refitted at the
+///    winner's α-model breakpoints, and, settled on the whole fit runs (output error from its
+///    window fit: the runs' starts count in the error over all runs too), its RMS over all
+///    samples of all runs is below (1 − significance/2) times that of the model before;
+///    otherwise `none`. Candidates whose search or
 ///    fit on all fit runs is not below (1 − significance/2) times that of `none` cannot meet
 ///    this and are not fitted further or cross-validated, nor are any but the two with the lowest
 ///    training RMS (their score is their training RMS, marked). Among candidates within 5 % of

@@ -6,7 +6,10 @@
 /// nonlinear terms), instead of against v = kp·(r − θ) as eqs. (19)-(20) do. With no effect the
 /// two agree; with one, the point is freed of what the effect would otherwise put into C and β̃
 /// (a spring shifts both with ω², a delay adds phase, friction adds damping that falls with
-/// amplitude·ω). α_data is still that of the command, eq. (36). Offline (allocates).
+/// amplitude·ω). α_data is that of the command, eq. (36), scaled for a deadzone to the plant
+/// input's α (the mean streaming estimate, rt/alpha_estimator.hpp, of Z(v) over that of v), as
+/// the virtual plant and the digital-loop simulation compute α from what the amplifier passes.
+/// Offline (allocates).
 
 #include <complex>
 #include <cstddef>
@@ -30,7 +33,8 @@ LocalLinearPoint local_linear_point_from_input(double freq_hz, std::complex<doub
 /// The point of a sine run at freq_hz over the steady-state samples `window` of `run` (t, θ, v),
 /// with the plant input built from the measured command and state through `effects`: the
 /// amplifier S(Z(v)) delayed by τ (a phase e^{−jωτ} on its fundamental) plus n(θ, θ̇), θ̇ from
-/// local quadratic fits over ±10 ms. `valid` false (in `physical`) when a fit fails.
+/// local quadratic fits over ±10 ms; α_data scaled as the file comment says. `valid` false (in
+/// `physical`) when a fit fails.
 LocalLinearPoint sine_point_with_effects(const RunData& run, IndexRange window, double freq_hz,
                                          double kp, double sample_period_s, const Effects& effects);
 

@@ -50,6 +50,7 @@ std::string TimingStats::to_json() const {
   nlohmann::json j = {{"period_s", period_s},
                       {"ticks", ticks},
                       {"deadline_misses", deadline_misses},
+                      {"skipped_ticks", skipped_ticks},
                       {"wake_latency", summary_json(latency)},
                       {"period_jitter", summary_json(period_jitter)},
                       {"read", summary_json(read)},
@@ -60,12 +61,12 @@ std::string TimingStats::to_json() const {
 std::string TimingStats::to_text() const {
   char buf[768];
   std::snprintf(buf, sizeof buf,
-                "ticks %ld, deadline misses %ld\n"
+                "ticks %ld, deadline misses %ld (%ld deadlines skipped)\n"
                 "wake-up latency [us]: p50 %.1f  p99 %.1f  p99.9 %.1f  max %.1f\n"
                 "period jitter [us]:   p50 %.1f  p99 %.1f  p99.9 %.1f  max %.1f\n"
                 "read [us]:            p50 %.1f  p99 %.1f  max %.1f\n"
                 "write [us]:           p50 %.1f  p99 %.1f  max %.1f",
-                ticks, deadline_misses, latency.p50_s * 1e6, latency.p99_s * 1e6,
+                ticks, deadline_misses, skipped_ticks, latency.p50_s * 1e6, latency.p99_s * 1e6,
                 latency.p999_s * 1e6, latency.max_s * 1e6, period_jitter.p50_s * 1e6,
                 period_jitter.p99_s * 1e6, period_jitter.p999_s * 1e6, period_jitter.max_s * 1e6,
                 read.p50_s * 1e6, read.p99_s * 1e6, read.max_s * 1e6, write.p50_s * 1e6,
@@ -165,7 +166,7 @@ LoopOutcome LoopRunner::run(const std::atomic<bool>& stop) {
   timespec prev_wake{};
   rt::LatencyHistogram& rd = *rd_ptr;
   rt::LatencyHistogram& wr = *wr_ptr;
-  long ticks = 0, misses = 0, dropped = 0;
+  long ticks = 0, misses = 0, skipped_total = 0, dropped = 0;
   bool run_active = false;
   std::uint32_t run_id = 0;
   double run_end_s = 0.0;
@@ -173,6 +174,7 @@ LoopOutcome LoopRunner::run(const std::atomic<bool>& stop) {
   bool pending_valid = false;
   LoopCommand pending;
   bool missed = false;
+  std::uint32_t skipped = 0;  // deadlines the last overrun passed
   bool stop_requested = false;
   double last_t_s = 0.0;
 
@@ -191,6 +193,7 @@ LoopOutcome LoopRunner::run(const std::atomic<bool>& stop) {
     const timespec after_read = now_mono();
     OutputReport out;
     rt::TickRecord rec = loop_.tick(t_s, in, missed, out);
+    rec.deadlines_skipped = skipped;
     const IoStatus ws = transport_.write(out);
     const timespec after_write = now_mono();
     if (ws != IoStatus::kOk) loop_.latch(rt::Fault::kDisconnected);
@@ -289,9 +292,14 @@ LoopOutcome LoopRunner::run(const std::atomic<bool>& stop) {
     deadline = add_ns(deadline, period_ns);
     const timespec done = now_mono();
     missed = diff_s(done, deadline) > 0.0;
+    skipped = 0;
     if (missed) {
       ++misses;
-      while (diff_s(done, deadline) > 0.0) deadline = add_ns(deadline, period_ns);
+      while (diff_s(done, deadline) > 0.0) {
+        deadline = add_ns(deadline, period_ns);
+        ++skipped;
+      }
+      skipped_total += skipped;
     }
   }
   // --- end of the tick ---------------------------------------------------------------------
@@ -303,6 +311,7 @@ LoopOutcome LoopRunner::run(const std::atomic<bool>& stop) {
   if (outcome.fault == rt::Fault::kDisconnected) outcome.fault_detail = transport_.last_error();
   outcome.timing.ticks = ticks;
   outcome.timing.deadline_misses = misses;
+  outcome.timing.skipped_ticks = skipped_total;
   outcome.timing.period_s = period_s;
   outcome.timing.latency = lat.summary();
   outcome.timing.period_jitter = pj.summary();
@@ -338,6 +347,7 @@ void LoopRunner::writer_main() {
         p->write.add(item.record.write_s);
         ++p->ticks;
         p->misses += item.record.deadline_missed ? 1 : 0;
+        p->skipped += item.record.deadlines_skipped;
       } else {
         lock.unlock();
         finish_run(item.run_id, item);
@@ -372,6 +382,7 @@ void LoopRunner::finish_run(std::uint32_t run_id, const RecordItem& end_item) {
   result.dropped_rows = end_item.dropped;
   result.timing.ticks = p->ticks;
   result.timing.deadline_misses = p->misses;
+  result.timing.skipped_ticks = p->skipped;
   result.timing.period_s = loop_.config().period_s;
   result.timing.latency = p->latency.summary();
   result.timing.period_jitter = p->period_jitter.summary();

@@ -1205,11 +1205,7 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
         best->effects.delay_s < opt.simulation.loop_period_s) {
       named = false;
     }
-    if (named) {
-      named = beats(*best, *none) &&
-              // ... and the whole runs agree: the error over all samples of all runs drops too.
-              best->error_after <= (1.0 - 0.5 * opt.significance) * rd.error_before;
-    }
+    if (named) named = beats(*best, *none);
     if (named && best->alpha && reid.usable()) {
       // The winner's α-model has breakpoints of its own. Breakpoint sets that fit the sine points
       // equally well can predict the other runs quite differently, so the winner must also beat
@@ -1228,16 +1224,47 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
         }
       }
     }
+    // Settled on the whole fit runs: the candidates were fitted on their last fit_window_s, but
+    // the error over all runs also counts the runs' starts (transients from rest).
+    CandidateScore settled = named ? *best : CandidateScore{};
+    if (named && opt.fit_window_s > 0.0) {
+      std::vector<ParamBlock> blocks;
+      for (EffectKind k : named_kinds) blocks.push_back(param_block(k, best->effects, sc));
+      blocks.push_back(param_block(best->effect, best->effects, sc));
+      const OutputErrorProblem pr =
+          make_problem(runs_in, fit_runs, blocks, current, best->scales, opt, best->alpha);
+      OutputErrorOptions oo;
+      oo.threads = opt.threads;
+      oo.max_iterations = 4;
+      const OutputErrorResult r = fit_output_error(pr, oo);
+      if (r.ok) {
+        const Effects e = effects_of(blocks, current, best->scales, r.values);
+        const ModelScales s = scales_of(best->scales, r.values);
+        const double after = pooled_rms(runs_in, run_rms_with(runs_in, all, e, s, opt, best->alpha), all);
+        if (std::isfinite(after) && after < best->error_after) {
+          settled.effects = e;
+          settled.scales = s;
+          settled.error_after = after;
+          settled.message = "settled on the whole fit runs (RMS over all runs " +
+                            num(best->error_after, "%.4g") + " from the windows' fit)";
+        }
+      }
+    }
+    // ... and the whole runs agree: the error over all samples of all runs drops too.
+    if (named) named = settled.error_after <= (1.0 - 0.5 * opt.significance) * rd.error_before;
     rd.named = named ? best->effect : EffectKind::kNone;
     if (!named) {  // `none`: the model stays as it was
       rd.error_after = rd.error_before;
       res.rounds.push_back(rd);
       break;
     }
-    current = best->effects;
-    ms = best->scales;
-    alpha = best->alpha;
-    rd.error_after = best->error_after;
+    for (auto& c : rd.candidates) {
+      if (c.effect == settled.effect) c = settled;
+    }
+    current = settled.effects;
+    ms = settled.scales;
+    alpha = settled.alpha;
+    rd.error_after = settled.error_after;
     res.rounds.push_back(rd);
     named_kinds.push_back(rd.named);
     res.effects_named.push_back(rd.named);

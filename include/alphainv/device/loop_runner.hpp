@@ -57,6 +57,9 @@ struct RunRecording {
 struct TimingStats {
   long ticks = 0;
   long deadline_misses = 0;          ///< ticks whose work ended after the next deadline
+  /// Deadlines passed without a tick after those overruns (one overrun can pass several): a
+  /// run of duration D has D/period − skipped_ticks ticks.
+  long skipped_ticks = 0;
   rt::LatencySummary latency;        ///< wake-up time minus the deadline
   rt::LatencySummary period_jitter;  ///< |time between wake-ups − period|
   rt::LatencySummary read;           ///< read_latest() durations
@@ -172,7 +175,7 @@ class LoopRunner {
   struct Partial {
     std::vector<rt::TickRecord> rows;  ///< only when the run is recorded
     rt::LatencyHistogram latency, period_jitter, read, write;
-    long ticks = 0, misses = 0;
+    long ticks = 0, misses = 0, skipped = 0;
     double run_start_s = 0.0;
   };
   std::map<std::uint32_t, std::unique_ptr<Partial>> partial_;

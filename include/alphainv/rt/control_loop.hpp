@@ -108,6 +108,9 @@ struct TickRecord {
   bool enable = false;           ///< amplifier enable sent
   bool new_report = false;       ///< a new input report arrived this tick
   bool deadline_missed = false;  ///< the previous tick overran its period
+  /// Deadlines passed without a tick before this one: the previous tick overran them (set by the
+  /// runner; ≥ 1 when deadline_missed).
+  std::uint32_t deadlines_skipped = 0;
   Fault fault = Fault::kNone;    ///< the fault in force (the command is then 0, disabled)
 };
 
