@@ -90,6 +90,19 @@ TEST(DiagnoseSweep, NamesAGravitySpringTheFittedModelHadAbsorbed) {
   EXPECT_TRUE(r.alpha.has_value());  // the model was re-identified with the spring
 }
 
+TEST(DiagnoseSweep, NamesAGravityTermWithAPhaseNotAnOffset) {
+  // θ0 ≠ 0: over ±0.07 rad, −g·sin(θ + θ0) is a spring g·cos θ0 and an offset g·sin θ0 (0.074 V
+  // here). Searched as (g, θ0), the curved valley was missed and the offset alone named (gap cut
+  // 39 %); searched as (spring, offset), both are found.
+  Effects hidden;
+  hidden.gravity_v = 0.3367;
+  hidden.gravity_theta0_rad = 0.2213;
+  const DiagnoseResult r = expect_named(hidden, 12, EffectKind::kGravity);
+  EXPECT_LT(r.error_after, 0.1 * r.error_before);
+  EXPECT_NEAR(r.effects.gravity_v, 0.3367, 0.05 * 0.3367);
+  EXPECT_NEAR(r.effects.gravity_theta0_rad, 0.2213, 0.03);
+}
+
 TEST(DiagnoseSweep, NamesATimeDelay) {
   Effects hidden;
   hidden.delay_s = 0.002;

@@ -472,13 +472,22 @@ struct EffectSearch {
   const ParamBlock* block = nullptr;
   Effects base;
   ModelScales unit;  ///< factors 1, shaped like the model's
+  /// x = (k, o), the gravity term −g·sin(θ + θ0) = −k·sin θ − o·cos θ as a spring and an offset
+  /// (k = g·cos θ0, o = g·sin θ0): over a small range of θ the cost is nearly quadratic in (k, o)
+  /// but a curved valley in (g, θ0) when θ0 ≠ 0.
+  bool gravity_spring_offset = false;
   double best_rms = kInf;
   Effects best;
 
   /// Pooled RMS over the fit runs of the model with the block's parameters x.
   double evaluate(const double* x) {
     Effects e = base;
-    for (std::size_t j = 0; j < block->params.size(); ++j) e.*(block->params[j].member) = x[j];
+    if (gravity_spring_offset) {
+      e.gravity_v = std::hypot(x[0], x[1]);
+      e.gravity_theta0_rad = std::atan2(x[1], x[0]);
+    } else {
+      for (std::size_t j = 0; j < block->params.size(); ++j) e.*(block->params[j].member) = x[j];
+    }
     const std::optional<AlphaModel> alpha = reid->fit(e);
     if (!alpha) return 1e30;
     const double r = pooled_rms(*runs, run_rms_with(*runs, *fit_runs, e, unit, *opt, alpha), *fit_runs);
@@ -563,7 +572,14 @@ std::optional<AlphaModel> best_variant(const Reidentifier& reid, const Effects& 
 /// from the best point (and the second best when nearly as good). Returns false when no evaluation succeeded.
 bool search_reidentified(EffectKind kind, const Effects& e, const DataScales& sc, double kp,
                          EffectSearch& s) {
-  const ParamBlock block = param_block(kind, e, sc);
+  ParamBlock block = param_block(kind, e, sc);
+  if (kind == EffectKind::kGravity) {  // searched as (spring k, offset o): see EffectSearch
+    const double g = block.start[0], th0 = block.start[1];
+    block.start = {g * std::cos(th0), g * std::sin(th0)};
+    block.lower = {-2.0 * sc.v_max, -sc.v_max};
+    block.upper = {2.0 * sc.v_max, sc.v_max};
+    s.gravity_spring_offset = true;
+  }
   s.block = &block;
   const double vm = sc.v_max;
   std::vector<std::vector<double>> grid{block.start};
@@ -573,8 +589,9 @@ bool search_reidentified(EffectKind kind, const Effects& e, const DataScales& sc
     const double x = block.start[j];
     double st = 0.5 * std::abs(x);
     if (name == "coulomb_v" || name == "offset_v" || name == "cogging_v") st = std::max(st, 0.02 * vm);
-    if (name == "gravity_v") st = 0.1 * kp;
-    if (name == "gravity_theta0_rad" || name == "cogging_phase_rad") st = 0.5;
+    if (name == "gravity_v") st = 0.1 * kp;  // the spring k
+    if (name == "gravity_theta0_rad") st = std::max(0.5 * std::abs(block.start[1]), 0.02 * vm);  // the offset o
+    if (name == "cogging_phase_rad") st = 0.5;
     if (name == "cogging_period_rad") st = 0.02 * x;
     if (name == "saturation_v") st = 0.1 * vm;
     step.push_back(st);  // delay and deadzone: set from the chosen start below
@@ -587,14 +604,14 @@ bool search_reidentified(EffectKind kind, const Effects& e, const DataScales& sc
       grid.push_back({0.0});
       break;
     case EffectKind::kGravity: {
-      // A spring g·cos θ0 of either sign, up to about the controller's stiffness kp, in ratios of
-      // about 1.4 (a spring the model has absorbed has a narrow valley), at θ0 = 0 (a pure spring
-      // over a small range of θ) and at the start's θ0 folded (the equation-error start from a
-      // model that absorbed the spring can have the wrong sign).
-      const double th0 = std::remainder(block.start[1], kTwoPi / 2.0);
+      // A spring k of either sign, up to about the controller's stiffness kp, in ratios of about
+      // 1.4 (a spring the model has absorbed has a narrow valley), with no offset (a pure spring)
+      // and with the equation-error start's offset o (whose spring, from a model that absorbed
+      // it, can have the wrong sign).
+      const double o = block.start[1];
       for (double f : {-0.3, -0.1, 0.035, 0.05, 0.07, 0.1, 0.14, 0.2, 0.28, 0.4, 0.56}) {
         grid.push_back({f * kp, 0.0});
-        if (std::abs(th0) > 0.05) grid.push_back({f * kp, th0});
+        if (std::abs(o) > 0.005 * vm) grid.push_back({f * kp, o});
       }
       break;
     }
