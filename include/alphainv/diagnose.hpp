@@ -26,8 +26,9 @@
 ///    samples of all runs is below (1 − significance/2) times that of the model before;
 ///    otherwise `none`. Candidates whose search or
 ///    fit on all fit runs is not below (1 − significance/2) times that of `none` cannot meet
-///    this and are not fitted further or cross-validated, nor are any but the two with the lowest
-///    training RMS (their score is their training RMS, marked). Among candidates within 5 % of
+///    this and are not fitted further or cross-validated, nor are those whose search RMS is more
+///    than 4 times the best candidate's, nor any but the two with the lowest training RMS (their
+///    score is their training RMS, marked). Among candidates within 5 % of
 ///    the best score the one with fewest parameters is taken.
 /// 4. With max_effects > 1 it goes round again with the named effects kept (and refitted).
 /// Offline; never throws on what the data cannot support: the result says.
