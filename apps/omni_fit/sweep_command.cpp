@@ -42,25 +42,31 @@ void draw_variation(SweepCase& c) {
   c.gravity_theta0_rad = -0.5 + u(rng) * 1.0;
 }
 
+/// The hidden effect's main parameter: the magnitude times the factor (a larger factor is a
+/// stronger effect: for a saturation, a lower limit).
+double hidden_magnitude(const SweepCase& c) {
+  return c.effect == EffectKind::kSaturation ? c.magnitude / c.factor : c.magnitude * c.factor;
+}
+
 /// Sets the hidden effect on the plant. Magnitudes are in the plant's units (V, s, rad).
 void apply(const SweepCase& c, Effects& e) {
+  const double m = hidden_magnitude(c);
   switch (c.effect) {
     case EffectKind::kNone: break;
-    case EffectKind::kCoulombFriction: e.coulomb_v = c.magnitude * c.factor; break;
-    case EffectKind::kOffsetTorque: e.offset_v = c.magnitude * c.factor; break;
+    case EffectKind::kCoulombFriction: e.coulomb_v = m; break;
+    case EffectKind::kOffsetTorque: e.offset_v = m; break;
     case EffectKind::kGravity:
-      e.gravity_v = c.magnitude * c.factor;
+      e.gravity_v = m;
       e.gravity_theta0_rad = c.gravity_theta0_rad;
       break;
     case EffectKind::kCogging:
-      e.cogging_v = c.magnitude * c.factor;
+      e.cogging_v = m;
       e.cogging_period_rad = c.cogging_period_rad;
       e.cogging_phase_rad = c.cogging_phase_rad;
       break;
-    case EffectKind::kTimeDelay: e.delay_s = c.magnitude * c.factor; break;
-    // A larger factor is a stronger effect: a lower limit.
-    case EffectKind::kSaturation: e.saturation_v = c.magnitude / c.factor; break;
-    case EffectKind::kDeadzone: e.deadzone_v = c.magnitude * c.factor; break;
+    case EffectKind::kTimeDelay: e.delay_s = m; break;
+    case EffectKind::kSaturation: e.saturation_v = m; break;
+    case EffectKind::kDeadzone: e.deadzone_v = m; break;
   }
 }
 
@@ -126,9 +132,9 @@ int run_sweep(const SweepCommandOptions& o) {
         for (double m : mags)
           for (int r = 0; r < repeat; ++r)
             cases.push_back({k, m, noise, seed + 1000u * static_cast<std::uint64_t>(r)});
+  }
   if (o.vary) {
     for (SweepCase& c : cases) draw_variation(c);
-  }
   }
   std::map<std::pair<int, int>, int> matrix;  // (true, named) → count
   int right = 0, named_effect = 0, cut_ok = 0, none_cases = 0, none_right = 0;
@@ -161,12 +167,9 @@ int run_sweep(const SweepCommandOptions& o) {
       ++named_effect;
       cut_ok += cut >= 0.30;
     }
-    const double magnitude =
-        c.effect == EffectKind::kSaturation ? c.magnitude / c.factor : c.magnitude * c.factor;
+    const double magnitude = hidden_magnitude(c);
     std::fprintf(stderr, "[%zu/%zu] %-16s %-8.3g noise %.0e seed %llu -> %-16s RMS %.3g -> %.3g (%.0f %%) %.1f s%s\n",
-                 ci + 1, cases.size(), effect_name(c.effect),
-                 magnitude,
-                 c.noise_std_rad,
+                 ci + 1, cases.size(), effect_name(c.effect), magnitude, c.noise_std_rad,
                  static_cast<unsigned long long>(c.seed), effect_name(named), r.error_before,
                  r.error_after, 100.0 * cut, r.seconds, ok_name ? "" : "  WRONG");
     Effects hidden;

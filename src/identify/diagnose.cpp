@@ -985,6 +985,14 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
       cand.cross_validated = true;
       cand.message.clear();
     };
+    // The output-error parameter blocks of the effects already named and of a new `kind`
+    // (none: no new block), with starts from `e`.
+    auto blocks_with = [&](EffectKind kind, const Effects& e) {
+      std::vector<ParamBlock> blocks;
+      for (EffectKind k : named_kinds) blocks.push_back(param_block(k, e, sc));
+      if (kind != EffectKind::kNone) blocks.push_back(param_block(kind, e, sc));
+      return blocks;
+    };
     // A candidate fitted on all fit runs; cross-validated now when `cv` (else its blocks and
     // values are left in *later for cross_validate()).
     auto fit_candidate = [&](EffectKind kind, const Effects& e, const ModelScales& start_scales,
@@ -992,9 +1000,7 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
                              std::pair<std::vector<ParamBlock>, std::vector<double>>* later) {
       CandidateScore cand;
       cand.effect = kind;
-      std::vector<ParamBlock> blocks;
-      for (EffectKind k : named_kinds) blocks.push_back(param_block(k, e, sc));
-      if (kind != EffectKind::kNone) blocks.push_back(param_block(kind, e, sc));
+      const std::vector<ParamBlock> blocks = blocks_with(kind, e);
       Effects base = current;
       // Fit on all fit runs, then on each fold from there.
       OutputErrorProblem pr = make_problem(runs, fit_runs, blocks, base, start_scales, opt, cand_alpha);
@@ -1284,9 +1290,7 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
     // the error over all runs also counts the runs' starts (transients from rest).
     CandidateScore settled = named ? *best : CandidateScore{};
     if (named && opt.fit_window_s > 0.0) {
-      std::vector<ParamBlock> blocks;
-      for (EffectKind k : named_kinds) blocks.push_back(param_block(k, best->effects, sc));
-      blocks.push_back(param_block(best->effect, best->effects, sc));
+      const std::vector<ParamBlock> blocks = blocks_with(best->effect, best->effects);
       const OutputErrorProblem pr =
           make_problem(runs_in, fit_runs, blocks, current, best->scales, opt, best->alpha);
       OutputErrorOptions oo;
