@@ -5,7 +5,7 @@
 #include <benchmark/benchmark.h>
 
 #include "alphainv/device/sim_transport.hpp"
-#include "alphainv/rt/control_loop.hpp"
+#include "alphainv/device/control_loop.hpp"
 #include "alphainv/rt/spsc_ring.hpp"
 
 using namespace alphainv;

@@ -4,10 +4,10 @@
 
 #include <benchmark/benchmark.h>
 
-#include "alphainv/damping_model.hpp"
-#include "alphainv/inertia_model.hpp"
+#include "alphainv/model/damping_model.hpp"
+#include "alphainv/model/inertia_model.hpp"
 #include "alphainv/rt/alpha_estimator.hpp"
-#include "alphainv/simulate.hpp"
+#include "alphainv/simulate/simulate.hpp"
 
 namespace {
 

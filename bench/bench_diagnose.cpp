@@ -7,8 +7,8 @@
 //      --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>
 
-#include "alphainv/diagnose.hpp"
-#include "alphainv/experiment_plan.hpp"
+#include "alphainv/diagnose/diagnose.hpp"
+#include "alphainv/simulate/experiment_plan.hpp"
 
 namespace {
 

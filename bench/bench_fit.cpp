@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "alphainv/dataset.hpp"
-#include "alphainv/fit_pipeline.hpp"
+#include "alphainv/data/dataset.hpp"
+#include "alphainv/identify/fit_pipeline.hpp"
 #ifdef ALPHAINV_HAVE_PLOTS
 #include "plots.hpp"
 #endif

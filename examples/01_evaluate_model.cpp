@@ -3,8 +3,8 @@
 #include <cmath>
 #include <cstdio>
 
-#include <alphainv/damping_model.hpp>
-#include <alphainv/inertia_model.hpp>
+#include <alphainv/model/damping_model.hpp>
+#include <alphainv/model/inertia_model.hpp>
 #include <alphainv/rt/alpha_estimator.hpp>
 
 int main() {

@@ -4,8 +4,8 @@
 #include <cmath>
 #include <cstdio>
 
-#include <alphainv/inertia_model.hpp>
-#include <alphainv/simulate.hpp>
+#include <alphainv/model/inertia_model.hpp>
+#include <alphainv/simulate/simulate.hpp>
 
 int main() {
   // The paper's model at the 65°/90° pose (true angles 60.08°, 87.00°).

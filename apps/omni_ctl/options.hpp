@@ -6,7 +6,7 @@
 
 #include "alphainv/device/loop_runner.hpp"
 #include "alphainv/device/transport.hpp"
-#include "alphainv/rt/control_loop.hpp"
+#include "alphainv/device/control_loop.hpp"
 
 namespace omni_ctl {
 

@@ -6,8 +6,8 @@
 #include "alphainv/device/hid_transport.hpp"
 #include "alphainv/device/sim_transport.hpp"
 #include "alphainv/error.hpp"
-#include "alphainv/model_file.hpp"
-#include "alphainv/virtual_omni.hpp"
+#include "alphainv/data/model_file.hpp"
+#include "alphainv/simulate/virtual_omni.hpp"
 #include "options.hpp"
 
 namespace omni_ctl {

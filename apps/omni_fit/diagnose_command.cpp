@@ -9,11 +9,11 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include "alphainv/dataset.hpp"
-#include "alphainv/diagnose.hpp"
+#include "alphainv/data/dataset.hpp"
+#include "alphainv/diagnose/diagnose.hpp"
 #include "alphainv/error.hpp"
-#include "alphainv/model_file.hpp"
-#include "alphainv/model_simulation.hpp"
+#include "alphainv/data/model_file.hpp"
+#include "alphainv/simulate/model_simulation.hpp"
 #include "fit_command.hpp"
 #include "plots.hpp"
 

@@ -10,11 +10,11 @@
 
 #include <nlohmann/json.hpp>
 
-#include "alphainv/dataset.hpp"
-#include "alphainv/effect_refinement.hpp"
+#include "alphainv/data/dataset.hpp"
+#include "alphainv/diagnose/effect_refinement.hpp"
 #include "alphainv/error.hpp"
-#include "alphainv/fit_pipeline.hpp"
-#include "alphainv/model_file.hpp"
+#include "alphainv/identify/fit_pipeline.hpp"
+#include "alphainv/data/model_file.hpp"
 #include "plots.hpp"
 #include "progress.hpp"
 

@@ -2,9 +2,9 @@
 #include <string>
 #include <vector>
 
-#include "alphainv/dataset.hpp"
-#include "alphainv/fit_pipeline.hpp"
-#include "alphainv/model_file.hpp"
+#include "alphainv/data/dataset.hpp"
+#include "alphainv/identify/fit_pipeline.hpp"
+#include "alphainv/data/model_file.hpp"
 
 namespace omni_fit {
 

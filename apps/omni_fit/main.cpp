@@ -7,11 +7,11 @@
 
 #include <CLI/CLI.hpp>
 
-#include "alphainv/alpha.hpp"
-#include "alphainv/identify.hpp"
-#include "alphainv/inertia_model.hpp"
-#include "alphainv/metrics.hpp"
-#include "alphainv/simulate.hpp"
+#include "alphainv/model/alpha.hpp"
+#include "alphainv/identify/local_linear.hpp"
+#include "alphainv/model/inertia_model.hpp"
+#include "alphainv/identify/metrics.hpp"
+#include "alphainv/simulate/simulate.hpp"
 #include "diagnose_command.hpp"
 #include "fit_command.hpp"
 #include "sweep_command.hpp"

@@ -18,12 +18,12 @@
 #include <set>
 #include <sstream>
 
-#include "alphainv/dataset.hpp"
+#include "alphainv/data/dataset.hpp"
 #include "alphainv/error.hpp"
-#include "alphainv/fit_pipeline.hpp"
-#include "alphainv/output_error.hpp"
-#include "alphainv/reference.hpp"
-#include "alphainv/simulate.hpp"
+#include "alphainv/identify/fit_pipeline.hpp"
+#include "alphainv/identify/output_error.hpp"
+#include "alphainv/simulate/reference.hpp"
+#include "alphainv/simulate/simulate.hpp"
 
 extern char** environ;
 

@@ -4,10 +4,10 @@
 #include <filesystem>
 #include <string>
 
-#include "alphainv/dataset.hpp"
+#include "alphainv/data/dataset.hpp"
 #include "alphainv/error.hpp"
-#include "alphainv/model_file.hpp"
-#include "alphainv/model_simulation.hpp"
+#include "alphainv/data/model_file.hpp"
+#include "alphainv/simulate/model_simulation.hpp"
 
 namespace omni_fit {
 

@@ -10,9 +10,9 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include "alphainv/diagnose.hpp"
+#include "alphainv/diagnose/diagnose.hpp"
 #include "alphainv/error.hpp"
-#include "alphainv/experiment_plan.hpp"
+#include "alphainv/simulate/experiment_plan.hpp"
 #include "plots.hpp"
 
 namespace omni_fit {

@@ -16,9 +16,9 @@
 #include <system_error>
 #include <vector>
 
-#include "alphainv/dataset.hpp"
+#include "alphainv/data/dataset.hpp"
 #include "alphainv/error.hpp"
-#include "alphainv/experiment_plan.hpp"
+#include "alphainv/simulate/experiment_plan.hpp"
 
 namespace {
 

@@ -1,8 +1,8 @@
 /// \file dataset.cpp
-/// Reader and atomic writer of `alphainv-dataset/1` (see include/alphainv/dataset.hpp and
+/// Reader and atomic writer of `alphainv-dataset/1` (see include/alphainv/data/dataset.hpp and
 /// docs/dataset-format.md). The CSV reader is hand-written and fuzzed (tests/fuzz/).
 
-#include "alphainv/dataset.hpp"
+#include "alphainv/data/dataset.hpp"
 
 #include <fcntl.h>
 #include <sys/stat.h>

@@ -1,4 +1,4 @@
-#include "alphainv/model_file.hpp"
+#include "alphainv/data/model_file.hpp"
 
 #include <cmath>
 #include <cstdio>

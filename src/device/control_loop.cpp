@@ -1,4 +1,4 @@
-#include "alphainv/rt/control_loop.hpp"
+#include "alphainv/device/control_loop.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "alphainv/alpha_fit.hpp"
+#include "alphainv/identify/alpha_fit.hpp"
 
 #include <nlopt.h>
 

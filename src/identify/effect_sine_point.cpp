@@ -1,10 +1,10 @@
-#include "alphainv/effect_sine_point.hpp"
+#include "alphainv/identify/effect_sine_point.hpp"
 
 #include <cmath>
 #include <vector>
 
 #include "alphainv/rt/alpha_estimator.hpp"
-#include "alphainv/time_domain_fit.hpp"
+#include "alphainv/identify/time_domain_fit.hpp"
 
 namespace alphainv {
 

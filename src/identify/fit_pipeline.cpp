@@ -1,4 +1,4 @@
-#include "alphainv/fit_pipeline.hpp"
+#include "alphainv/identify/fit_pipeline.hpp"
 
 #include <algorithm>
 #include <atomic>
@@ -9,10 +9,10 @@
 #include <mutex>
 #include <thread>
 
-#include "alphainv/effect_sine_point.hpp"
-#include "alphainv/metrics.hpp"
-#include "alphainv/output_error.hpp"
-#include "alphainv/reference.hpp"
+#include "alphainv/identify/effect_sine_point.hpp"
+#include "alphainv/identify/metrics.hpp"
+#include "alphainv/identify/output_error.hpp"
+#include "alphainv/simulate/reference.hpp"
 #include "fit_pipeline_internal.hpp"
 
 namespace alphainv {

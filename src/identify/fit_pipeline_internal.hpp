@@ -4,8 +4,8 @@
 #include <cstddef>
 #include <vector>
 
-#include "alphainv/dataset.hpp"
-#include "alphainv/fit_pipeline.hpp"
+#include "alphainv/data/dataset.hpp"
+#include "alphainv/identify/fit_pipeline.hpp"
 
 namespace alphainv::detail {
 

@@ -2,7 +2,7 @@
 #include <cmath>
 #include <string>
 
-#include "alphainv/time_domain_fit.hpp"
+#include "alphainv/identify/time_domain_fit.hpp"
 #include "fit_pipeline_internal.hpp"
 
 namespace alphainv::detail {

@@ -2,7 +2,7 @@
 /// Fit of the inertia model (6) and C̄0 to per-pose C_linear, β̃_linear, eqs. (27)-(29), by Ceres.
 /// Ceres stays in this file (linked PRIVATE); see inertia_fit.hpp for the API.
 
-#include "alphainv/inertia_fit.hpp"
+#include "alphainv/identify/inertia_fit.hpp"
 
 #include <ceres/ceres.h>
 #include <ceres/covariance.h>
@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-#include "alphainv/detail/inertia_fit_residual.hpp"
+#include "alphainv/identify/detail/inertia_fit_residual.hpp"
 
 namespace alphainv {
 namespace {

@@ -3,7 +3,7 @@
 #include <cmath>
 #include <complex>
 
-#include "alphainv/identify.hpp"
+#include "alphainv/identify/local_linear.hpp"
 
 namespace alphainv {
 

@@ -1,10 +1,10 @@
-#include "alphainv/metrics.hpp"
+#include "alphainv/identify/metrics.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
-#include "alphainv/identify.hpp"
+#include "alphainv/identify/local_linear.hpp"
 
 namespace alphainv {
 

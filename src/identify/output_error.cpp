@@ -1,4 +1,4 @@
-#include "alphainv/output_error.hpp"
+#include "alphainv/identify/output_error.hpp"
 
 #include <algorithm>
 #include <atomic>
@@ -9,7 +9,7 @@
 #include <Eigen/Dense>
 #include <ceres/ceres.h>
 
-#include "alphainv/reference.hpp"
+#include "alphainv/simulate/reference.hpp"
 
 namespace alphainv {
 

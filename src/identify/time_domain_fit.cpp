@@ -1,11 +1,11 @@
-#include "alphainv/time_domain_fit.hpp"
+#include "alphainv/identify/time_domain_fit.hpp"
 
 #include <algorithm>
 #include <cmath>
 
 #include <Eigen/Dense>
 
-#include "alphainv/output_error.hpp"
+#include "alphainv/identify/output_error.hpp"
 
 namespace alphainv {
 

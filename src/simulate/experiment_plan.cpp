@@ -1,4 +1,4 @@
-#include "alphainv/experiment_plan.hpp"
+#include "alphainv/simulate/experiment_plan.hpp"
 
 #include <charconv>
 #include <cmath>
@@ -7,7 +7,7 @@
 #include <utility>
 
 #include "alphainv/error.hpp"
-#include "alphainv/reference.hpp"
+#include "alphainv/simulate/reference.hpp"
 
 namespace alphainv {
 

@@ -1,4 +1,4 @@
-#include "alphainv/reference.hpp"
+#include "alphainv/simulate/reference.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "alphainv/simulate.hpp"
+#include "alphainv/simulate/simulate.hpp"
 
 #include <algorithm>
 #include <array>
@@ -11,9 +11,9 @@
 #include <sunlinsol/sunlinsol_dense.h>
 #include <sunmatrix/sunmatrix_dense.h>
 
-#include "alphainv/alpha.hpp"
+#include "alphainv/model/alpha.hpp"
 #include "alphainv/error.hpp"
-#include "alphainv/virtual_omni.hpp"
+#include "alphainv/simulate/virtual_omni.hpp"
 
 namespace alphainv {
 

@@ -1,4 +1,4 @@
-#include "alphainv/virtual_omni.hpp"
+#include "alphainv/simulate/virtual_omni.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -6,7 +6,7 @@
 #include <string>
 
 #include "alphainv/error.hpp"
-#include "field_checks.hpp"
+#include "alphainv/model/detail/field_checks.hpp"
 
 namespace alphainv {
 

@@ -1,4 +1,4 @@
-// libFuzzer target for the alphainv-dataset/1 reader (include/alphainv/dataset.hpp).
+// libFuzzer target for the alphainv-dataset/1 reader (include/alphainv/data/dataset.hpp).
 //
 // The first input byte chooses what the rest is fed to (byte % 4):
 //   0  parse_run_csv                 the hand-written CSV reader
@@ -16,7 +16,7 @@
 #include <string>
 #include <string_view>
 
-#include "alphainv/dataset.hpp"
+#include "alphainv/data/dataset.hpp"
 #include "alphainv/error.hpp"
 
 namespace {

@@ -25,9 +25,9 @@
 #include <thread>
 #include <vector>
 
-#include "alphainv/dataset.hpp"
+#include "alphainv/data/dataset.hpp"
 #include "alphainv/device/transport.hpp"
-#include "alphainv/rt/control_loop.hpp"
+#include "alphainv/device/control_loop.hpp"
 #include "alphainv/rt/latency_histogram.hpp"
 #include "alphainv/rt/spsc_ring.hpp"
 

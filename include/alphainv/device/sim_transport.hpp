@@ -13,7 +13,7 @@
 
 #include "alphainv/device/hid_report.hpp"
 #include "alphainv/device/transport.hpp"
-#include "alphainv/virtual_omni.hpp"
+#include "alphainv/simulate/virtual_omni.hpp"
 
 namespace alphainv::device {
 

@@ -1,0 +1,38 @@
+cmake_minimum_required(VERSION 3.22)
+# ctest `layering`: every #include "alphainv/<component>/..." in include/alphainv/<c>/ and
+# src/<c>/ must name a component <c> may use (docs/architecture.md):
+#   model, rt (core) <- data <- simulate <- identify <- diagnose;  device uses core, data, simulate.
+# Run: cmake -DSOURCE_DIR=<repo> -P cmake/check_layering.cmake
+set(allowed_model model rt)
+set(allowed_rt model rt)
+set(allowed_data model rt data)
+set(allowed_simulate model rt data simulate)
+set(allowed_identify model rt data simulate identify)
+set(allowed_diagnose model rt data simulate identify diagnose)
+set(allowed_device model rt data simulate device)
+set(allowed_common model rt)
+set(violations "")
+foreach(component model rt data simulate identify diagnose device common)
+  file(GLOB_RECURSE files
+       ${SOURCE_DIR}/include/alphainv/${component}/*.hpp
+       ${SOURCE_DIR}/src/${component}/*.hpp ${SOURCE_DIR}/src/${component}/*.cpp)
+  foreach(f ${files})
+    file(STRINGS ${f} lines REGEX "^#include \"alphainv/")
+    foreach(line ${lines})
+      if(line MATCHES "^#include \"alphainv/([a-z_]+)/")
+        set(used ${CMAKE_MATCH_1})
+        if(NOT used IN_LIST allowed_${component})
+          file(RELATIVE_PATH rel ${SOURCE_DIR} ${f})
+          string(APPEND violations "  ${rel}: ${line} (${component} may use: ${allowed_${component}})\n")
+        endif()
+      elseif(NOT line MATCHES "^#include \"alphainv/error.hpp\"")
+        file(RELATIVE_PATH rel ${SOURCE_DIR} ${f})
+        string(APPEND violations "  ${rel}: ${line} (not a component header)\n")
+      endif()
+    endforeach()
+  endforeach()
+endforeach()
+if(violations)
+  message(FATAL_ERROR "layering: includes that point up or sideways:\n${violations}")
+endif()
+message(STATUS "layering: every component includes only what it may use")

@@ -1,0 +1,71 @@
+#pragma once
+/// \file model_file.hpp
+/// `model.json`, the fitted model as omni_fit writes it and the library, omni_ctl and
+/// `omni_fit simulate` load it. Versioned schema "alphainv-model/1". Not real-time.
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "alphainv/model/controller.hpp"
+#include "alphainv/model/damping_model.hpp"
+#include "alphainv/model/effects.hpp"
+#include "alphainv/model/inertia_model.hpp"
+
+namespace alphainv {
+
+/// The schema this library reads and writes.
+inline constexpr const char* kModelSchema = "alphainv-model/1";
+
+/// A pose's own global linear model (used when there is no inertia model).
+struct PoseLinearModel {
+  std::optional<double> gamma1_deg, gamma2_deg;  ///< the pose, when known
+  double c_linear = 0.0;                         ///< [1/s]
+  double beta_tilde_linear = 0.0;                ///< [rad/s² per command unit]
+};
+
+/// Everything in model.json.
+struct ModelFile {
+  std::string tool_version;      ///< the alphainv version that wrote it
+  std::string dataset_hash;      ///< FNV-1a 64 of dataset.json and the run files, hex
+  std::string dataset_path;      ///< where the dataset was read from (informational)
+  std::string position_unit = "rad";
+  std::string command_unit = "V";
+  Controller controller;         ///< the controller of the identification runs
+  bool has_inertia_model = false;
+  LinearModel linear;            ///< inertia model (6) and C̄0 (24)-(26), when has_inertia_model
+  std::array<double, 6> linear_se{};  ///< SE of I_base, I1, I2, I3, γ_offs [rad], C̄0 (NaN: unknown)
+  std::vector<PoseLinearModel> poses; ///< per-pose global linear models (22)
+  bool has_alpha_model = false;
+  AlphaModel alpha;              ///< α-invariant model (38)-(42)
+  std::array<double, kMaxBreakpoints> c_n1_se{};  ///< SE of C_n1
+  std::array<double, 2> beta_n1_se{};             ///< SE of β̃_n1
+  /// Effects beyond the α-model (effects.hpp) that `omni_fit diagnose` added; all off by default.
+  /// JSON: "effects": [{"effect": "<catalogue name>", "parameters": {"<name>": x, …}}, …], the
+  /// active effects in catalogue order with the parameters effect_parameters() lists (and
+  /// coulomb_smoothing_rad_s with coulomb_friction). Absent in older files: all off.
+  Effects effects;
+  /// The simulation the model was identified with [s]: > 0 the digital loop at this tick period
+  /// (SimulationOptions::loop_period_s), 0 the continuous law (43). JSON: "simulation":
+  /// {"loop_period_s": x}; absent in older files: 0.
+  double loop_period_s = 0.0;
+  std::vector<std::string> notes;                 ///< what the fit could not do, choices made
+};
+
+/// Writes model.json atomically (temporary file, then rename). Throws alphainv::Error on I/O, and
+/// (before writing anything) on effects or loop_period_s that read_model_file would refuse.
+void write_model_file(const std::filesystem::path& path, const ModelFile& model);
+/// Reads model.json; throws alphainv::Error naming the file and the key on anything malformed.
+ModelFile read_model_file(const std::filesystem::path& path);
+/// The JSON text of a model (what write_model_file writes).
+std::string format_model_file(const ModelFile& model);
+/// Parses model JSON text; `name_for_errors` is the file name errors give.
+ModelFile parse_model_file(const std::string& json, const std::string& name_for_errors);
+
+/// FNV-1a 64-bit hash of dataset.json and every run file of the dataset at `dir`, as 16 hex digits.
+std::string hash_dataset(const std::filesystem::path& dir, const std::vector<std::string>& run_files);
+
+}  // namespace alphainv

@@ -1,0 +1,188 @@
+#pragma once
+/// \file diagnose.hpp
+/// The diagnose workflow: where a model's simulation and the measurement disagree, which physical
+/// effect of the catalogue (effects.hpp) explains the gap, and how much adding it shrinks it.
+///
+/// 1. Every run is simulated under its own controller with the model; the residual θ − θ_sim is
+///    located per run, per frequency and over the state (velocity reversals, θ, |v|, α, time
+///    after reference jumps) and the concentrations are said in words.
+/// 2. Each candidate effect is fitted together with the model. First its parameters are searched
+///    (a coarse scan of its main parameter on a grid scaled by the data, with an equation-error
+///    start for the torque-like effects, then Nelder-Mead, NLopt) with the α-model RE-IDENTIFIED at
+///    every value: the sine runs' local points taken with the candidate in the plant input
+///    (effect_sine_point.hpp) and the α-model fitted again to them (alpha_fit.hpp), since a model
+///    identified without the effect has absorbed it (a spring, a delay, friction shift C and β̃
+///    with frequency) and cannot be mended by adding the effect alone. Among the grid search's
+///    winner and runners-up, the breakpoint set that predicts the fit runs best is kept (`none`
+///    gets the same choice). Then output error (output_error.hpp) refines the effect together
+///    with factors on the model's coefficients (C_n, β̃ ends). Without an α-model or sine runs:
+///    output error from equation-error or scanned starts on the model as given.
+/// 3. Each candidate is scored by 2-fold cross-validation in time (fitted on the first half of
+///    every fit window, RMS error on the second half, and the other way round), so a bigger model
+///    does not win by default. The best candidate is named only when its cross-validated error is below
+///    (1 − significance) times that of `none` in both folds, it also beats `none` refitted at the
+///    winner's α-model breakpoints, and, settled on the whole fit runs (output error from its
+///    window fit: the runs' starts count in the error over all runs too), its RMS over all
+///    samples of all runs is below (1 − significance/2) times that of the model before;
+///    otherwise `none`. Candidates whose search or
+///    fit on all fit runs is not below (1 − significance/2) times that of `none` cannot meet
+///    this and are not fitted further or cross-validated, nor are those whose search RMS is more
+///    than 4 times the best candidate's, nor any but the two with the lowest training RMS (their
+///    score is their training RMS, marked). Among candidates within 5 % of
+///    the best score the one with fewest parameters is taken.
+/// 4. With max_effects > 1 it goes round again with the named effects kept (and refitted).
+/// Offline; never throws on what the data cannot support: the result says.
+
+#include <cstddef>
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "alphainv/model/controller.hpp"
+#include "alphainv/data/dataset.hpp"
+#include "alphainv/model/effects.hpp"
+#include "alphainv/identify/fit_pipeline.hpp"
+#include "alphainv/simulate/simulate.hpp"
+
+namespace alphainv {
+
+/// Factors on the model's coefficients, fitted together with an effect: c[n] multiplies C_n (the
+/// α-model's value at breakpoint n, eq. (38); a linear model has c[0] only) and beta[j] multiplies
+/// β̃_j (eq. (41); beta[0] only for a linear model). All 1: the model as given.
+struct ModelScales {
+  std::vector<double> c{1.0};
+  std::vector<double> beta{1.0};
+};
+
+/// One run to diagnose: data, controller and the model at its pose.
+struct DiagnoseRun {
+  const RunData* data = nullptr;  ///< must outlive the call
+  Controller controller;
+  JointModelAtPose model;         ///< the model to test (its effects are kept)
+  std::string name;               ///< for the report (the run's file)
+  std::string kind;               ///< "sine", "square", "step", "other", …
+  std::optional<double> freq_hz;  ///< reference frequency of periodic runs
+  /// Commands of the ticks before the run's first sample (oldest first), for a run that starts
+  /// mid-way (see InitialState::command_history). Usually empty.
+  std::vector<double> command_history;
+};
+
+/// Settings of diagnose().
+struct DiagnoseOptions {
+  std::size_t max_effects = 1;  ///< rounds: effects named at most
+  unsigned threads = 0;         ///< simulations in parallel; 0: all cores
+  SimulationOptions simulation; ///< continuous law or digital loop (loop_period_s > 0)
+  std::size_t max_fit_runs = 20;  ///< runs used to fit and score candidates (spread over kinds)
+  std::size_t max_residuals_per_run = 800;  ///< output-error residual samples per run
+  /// Candidates are fitted and scored on the last fit_window_s of each fit run (started from the
+  /// measured state there), which keeps the steady state of sine runs and the last jump of square
+  /// runs at a fraction of the cost; 0: whole runs.
+  double fit_window_s = 2.5;
+  /// A candidate is named when its cross-validated RMS is below (1 − significance) × that of
+  /// `none` in both folds.
+  double significance = 0.10;
+  std::vector<EffectKind> candidates;  ///< empty: the whole catalogue
+  /// Search each candidate's parameters with the α-model's coefficients re-identified from the
+  /// sine runs' local points taken with the candidate in the plant input (effect_sine_point.hpp)
+  /// before the output-error fit; needs an α-model and sine runs under a P law. false: the
+  /// output-error fit alone, from equation-error or scanned starts.
+  bool reidentify = true;
+};
+
+/// One candidate of one round.
+struct CandidateScore {
+  EffectKind effect = EffectKind::kNone;
+  bool ok = false;
+  std::string message;
+  Effects effects;      ///< all effects of the model with this candidate (fitted on all fit runs)
+  ModelScales scales;   ///< the model's coefficient factors fitted with it
+  /// Cross-validated RMS of θ − θ_sim [position unit] (the score; lower is better).
+  double score = std::numeric_limits<double>::infinity();
+  std::array<double, 2> fold_scores{{std::numeric_limits<double>::infinity(),
+                                     std::numeric_limits<double>::infinity()}};
+  double error_after = std::numeric_limits<double>::quiet_NaN();  ///< RMS over all runs
+  /// RMS of the fit on all fit runs (fit windows) [position unit]
+  double training_rms = std::numeric_limits<double>::quiet_NaN();
+  bool cross_validated = true;  ///< false: pruned, `score` is its training RMS
+  /// true: started from the search with the α-model re-identified (DiagnoseOptions::reidentify)
+  bool reidentified = false;
+  /// The α-model re-identified with the effects (replaces the runs' α-model; the scales apply to
+  /// it); nullopt: the runs' own.
+  std::optional<AlphaModel> alpha;
+};
+
+/// Where the residual concentrates.
+struct ResidualLocation {
+  std::vector<double> run_rms;         ///< per run [position unit]
+  double rms = std::numeric_limits<double>::quiet_NaN();  ///< over all runs and samples
+  /// Share of residual energy over share of samples in a state region (1: no concentration).
+  double reversal_concentration = std::numeric_limits<double>::quiet_NaN();  ///< |θ̇| < 10 % max
+  double jump_concentration = std::numeric_limits<double>::quiet_NaN();  ///< ≤ 0.15 s after a jump
+  double high_command_concentration = std::numeric_limits<double>::quiet_NaN();  ///< top 10 % |v|
+  double low_command_concentration = std::numeric_limits<double>::quiet_NaN();   ///< bottom 10 % |v|
+  double high_alpha_concentration = std::numeric_limits<double>::quiet_NaN();    ///< top 10 % α
+  double position_r2 = std::numeric_limits<double>::quiet_NaN();  ///< residual torque ~ sin θ, cos θ
+  double low_vs_high_frequency = std::numeric_limits<double>::quiet_NaN();  ///< sine-run RMS ratio
+  std::vector<std::string> findings;   ///< the concentrations said in words
+};
+
+/// One round.
+struct DiagnoseRound {
+  EffectKind named = EffectKind::kNone;
+  std::vector<CandidateScore> candidates;  ///< in catalogue order
+  /// `none` refitted with the α-model at the winner's breakpoints (when the winner's α-model was
+  /// re-identified): the winner is named only if it beats this too.
+  std::optional<CandidateScore> none_at_winner_breakpoints;
+  double error_before = std::numeric_limits<double>::quiet_NaN();
+  double error_after = std::numeric_limits<double>::quiet_NaN();
+};
+
+/// What diagnose() found.
+struct DiagnoseResult {
+  bool ok = false;
+  std::string message;
+  std::vector<DiagnoseRound> rounds;
+  std::vector<EffectKind> effects_named;  ///< in order
+  Effects effects;                         ///< the final model's effects
+  ModelScales scales;                      ///< the final model's coefficient factors
+  /// The final model's α-model when re-identified with its effects (replaces the runs' α-model
+  /// before the factors); nullopt: the runs' own.
+  std::optional<AlphaModel> alpha;
+  ResidualLocation before, after;          ///< the residual of the model given and of the final one
+  double error_before = std::numeric_limits<double>::quiet_NaN();  ///< RMS of θ − θ_sim, all runs
+  double error_after = std::numeric_limits<double>::quiet_NaN();
+  std::vector<std::size_t> fit_runs;  ///< indices of the runs used to fit and score
+  double seconds = 0.0;               ///< wall time
+};
+
+/// Runs the workflow (file comment).
+DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs, const DiagnoseOptions& options = {});
+
+/// The model `base` with its α-model replaced by `alpha` (when given), then the effects `e` and
+/// the coefficient factors applied.
+JointModelAtPose diagnosed_model(const JointModelAtPose& base, const Effects& e,
+                                 const ModelScales& scales,
+                                 const std::optional<AlphaModel>& alpha = std::nullopt);
+
+/// Simulates every run with its model changed by diagnosed_model(); returns the simulated θ of
+/// each (empty for a failed run).
+std::vector<std::vector<double>> simulate_diagnosed(const std::vector<DiagnoseRun>& runs,
+                                                    const Effects& e,
+                                                    const ModelScales& scales,
+                                                    const SimulationOptions& simulation,
+                                                    unsigned threads = 0,
+                                                    const std::optional<AlphaModel>& alpha = std::nullopt);
+
+/// The runs of `dataset` with the models of `fit` (model_for_pose of each run's pose), each under
+/// its own controller; runs that switch the motor off (torque_enable = 0) are left out.
+std::vector<DiagnoseRun> diagnose_runs(const Dataset& dataset, const std::vector<RunData>& data,
+                                       const DatasetFit& fit);
+
+/// Fits the α-invariant model to the dataset (fit_dataset() without validation; `fit_options`
+/// as given), then diagnoses it with the fit's simulation mode. `fit_out` receives the fit.
+DiagnoseResult diagnose_dataset(const Dataset& dataset, const std::vector<RunData>& data,
+                                DiagnoseOptions options, const FitPipelineOptions& fit_options = {},
+                                DatasetFit* fit_out = nullptr);
+
+}  // namespace alphainv

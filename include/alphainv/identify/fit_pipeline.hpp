@@ -1,0 +1,144 @@
+#pragma once
+/// \file fit_pipeline.hpp
+/// The paper's whole identification on a dataset (sections 2.2 to 2.3.5) and its validation by
+/// simulation (section 2.4): local linear points per sine run, the global linear model per pose,
+/// the inertia model across poses, the α-invariant model, and Table 8 / Table 11 style errors of the
+/// linear and the α-model. Offline; never throws on what the data cannot support: it says so in
+/// `notes` and leaves the affected parts empty. Throws alphainv::Error only for unreadable input
+/// and for known effects out of range (FitPipelineOptions::effects).
+
+#include <cstddef>
+#include <functional>
+#include <limits>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "alphainv/identify/alpha_fit.hpp"
+#include "alphainv/model/controller.hpp"
+#include "alphainv/data/dataset.hpp"
+#include "alphainv/model/effects.hpp"
+#include "alphainv/identify/local_linear.hpp"
+#include "alphainv/identify/inertia_fit.hpp"
+#include "alphainv/identify/metrics.hpp"
+#include "alphainv/simulate/simulate.hpp"
+
+namespace alphainv {
+
+/// The PID law of a run as the simulator takes it.
+Controller to_controller(const ControllerConfig& config);
+
+/// Settings of fit_dataset().
+struct FitPipelineOptions {
+  double settle_fraction = 0.5;   ///< sine runs: the first fraction of the run is transient
+  std::size_t n_breakpoints = 4;  ///< N of the α-model
+  unsigned threads = 0;           ///< validation simulations in parallel; 0: all cores
+  bool validate = true;           ///< simulate every run with both models
+  /// Poses without sine runs get their linear model (and the dataset its α-model, when no sine run
+  /// gave one) by time-domain output error (time_domain_fit.hpp) on their runs.
+  bool time_domain = true;
+  /// Progress of the stages ("local fits", "inertia fit", "alpha breakpoint search",
+  /// "validation simulations"): items done of total. Calls never overlap (a mutex serialises
+  /// them) but may come from a validation worker thread. Empty: no calls.
+  std::function<void(std::string_view stage, std::size_t done, std::size_t total)> progress;
+  /// Digital-loop correction of the local points (local_linear_point()): the controller tick T [s].
+  /// NaN (default): T = 1/sample_rate_hz when the dataset gives a rate (a digital loop: the command
+  /// of each row held until the next), else a continuous loop; 0: off, the paper's (19)-(20);
+  /// > 0: this T.
+  double loop_period_s = std::numeric_limits<double>::quiet_NaN();
+  bool refine_breakpoints = true;  ///< AlphaFitOptions::refine (NLopt search off the grid)
+  /// Re-identify the inertia model so that it is consistent with the α-model (see fit_dataset's
+  /// notes); false: the paper's inertia model from the global linear fits alone.
+  bool alpha_consistent_inertia = true;
+  /// Known effects of the plant beyond the model (effects.hpp; e.g. from `omni_fit diagnose`),
+  /// all off by default. When any is on, the local point of each sine run is read against the
+  /// plant input through them (sine_point_with_effects(), effect_sine_point.hpp) instead of the
+  /// command, over the same steady-state window, and every simulation (validation, time-domain
+  /// fit) includes them. All off: the fit is the one without this option, bit for bit. Limit:
+  /// the correction is a describing function of the effects' input; harmonics they put into the
+  /// command also make the plant's α̂ swing within a period, which biases points on a steep
+  /// stretch of C(α) (tests/test_parameter_recovery.cpp).
+  Effects effects;
+};
+
+/// One sine run's local identification.
+struct SineRunPoint {
+  std::size_t run = 0;           ///< index into dataset.runs
+  std::size_t pose = 0;          ///< index into DatasetFit::poses
+  LocalLinearPoint point;        ///< C_data, β_data, α_data; `physical`
+  double gain = 0.0;             ///< measured A0/Ar
+  double phase_deg = 0.0;        ///< measured phase of θ relative to r [deg]
+};
+
+/// How well one model (linear or α) reproduces a set of runs: Table 8 (fundamental magnitude and
+/// phase, 90th percentile over a sweep) and Table 11 (|θ_sim − θ| of square/step runs, median and
+/// 90th percentile). NaN where the runs of that kind are absent. The names are those of
+/// `omni_fit fit --json`.
+struct ModelErrors {
+  double magnitude_p90 = std::numeric_limits<double>::quiet_NaN();        ///< [1]
+  double phase_p90_deg = std::numeric_limits<double>::quiet_NaN();        ///< [deg]
+  double step_median_abs_err = std::numeric_limits<double>::quiet_NaN(); ///< [position unit]
+  double step_p90_abs_err = std::numeric_limits<double>::quiet_NaN();     ///< [position unit]
+  /// Median over the runs of ‖θ_sim − θ‖/‖θ‖ (every simulated run, any kind) [1].
+  double rel_position_error_median = std::numeric_limits<double>::quiet_NaN();
+};
+
+/// One pose (set of runs with the same γ1, γ2).
+struct PoseFit {
+  std::optional<double> gamma1_deg, gamma2_deg;  ///< measured pose, if the runs give it
+  std::vector<std::size_t> runs;                 ///< indices into dataset.runs
+  GlobalLinearFit linear;                        ///< eq. (22) on `band_hz`
+  double band_lo_hz = 0.0, band_hi_hz = 0.0;     ///< frequency band used for (22)
+  double inertia = 1.0;                          ///< I from the inertia model, or 1 without one
+  /// How `linear` was identified: "sine (22)" or "time domain (output error)"; empty: not at all.
+  std::string linear_source;
+  ModelErrors linear_errors, alpha_errors;        ///< validation over this pose's runs
+};
+
+/// How one model's simulation of one run compares with the measurement.
+struct RunErrors {
+  bool simulated = false;
+  FundamentalError fundamental;          ///< sine runs, over the steady-state window
+  AbsErrorStats abs;                     ///< |θ_sim − θ| over the whole run
+  double rel_position_error = std::numeric_limits<double>::quiet_NaN();  ///< ‖θ_sim − θ‖/‖θ‖ [1]
+};
+
+/// Validation of one run.
+struct RunValidation {
+  std::size_t run = 0;
+  bool simulated = false;  ///< the linear simulation ran (the α one too when the α-model exists)
+  std::string message;
+  RunErrors linear, alpha;
+};
+
+/// Everything fit_dataset() finds.
+struct DatasetFit {
+  std::vector<SineRunPoint> sine_points;
+  std::vector<PoseFit> poses;
+  bool has_inertia_model = false;
+  InertiaFitSummary inertia;   ///< valid when has_inertia_model
+  double kp = 0.0;             ///< the P gain used to turn β into β̃ (runs must agree)
+  double loop_period_s = 0.0;  ///< T the digital-loop correction used [s]; 0: continuous (19)-(20)
+  AlphaFitResult alpha;        ///< alpha.ok when the α-model was fitted
+  /// How `alpha` was identified: "sine (2.3.5)" or "time domain (output error)".
+  std::string alpha_source;
+  /// The simulation the validation (and a time-domain fit) used: the continuous law (43), or the
+  /// digital loop at the dataset's sample period (loop_period_s > 0).
+  SimulationOptions simulation;
+  /// The known effects the fit assumed (FitPipelineOptions::effects); model_for_pose() carries
+  /// them into the simulations.
+  Effects effects;
+  std::vector<RunValidation> validation;
+  std::vector<std::string> notes;  ///< what could not be done, and why; choices made
+  ModelErrors linear_errors, alpha_errors;  ///< medians over poses of the per-pose figures
+  /// The model at a run's pose, for simulation (linear and α parts, and `effects`).
+  JointModelAtPose model_for_pose(std::size_t pose) const;
+};
+
+/// Runs the identification and validation on `dataset` with its run data (`data[i]` of
+/// `dataset.runs[i]`).
+DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
+                       const FitPipelineOptions& options = {});
+
+}  // namespace alphainv

@@ -1,0 +1,1386 @@
+#include "alphainv/diagnose/diagnose.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <thread>
+
+#include <Eigen/Dense>
+#include <nlopt.h>
+
+#include "alphainv/identify/alpha_fit.hpp"
+#include "alphainv/identify/effect_sine_point.hpp"
+#include "alphainv/identify/output_error.hpp"
+#include "alphainv/simulate/reference.hpp"
+#include "alphainv/identify/time_domain_fit.hpp"
+
+namespace alphainv {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kTwoPi = 6.283185307179586476925;
+/// Runners-up of the α-model's grid search tried by best_variant().
+constexpr std::size_t kAlphaVariants = 8;
+/// A searched candidate whose search RMS exceeds this many times the best candidate's is not
+/// fitted by output error (diagnose()).
+constexpr double kSearchPruneRatio = 4.0;
+
+unsigned thread_count(unsigned requested, std::size_t jobs) {
+  const unsigned hw = std::max(1u, std::thread::hardware_concurrency());
+  const unsigned n = requested ? requested : hw;
+  return std::max(1u, std::min<unsigned>(n, static_cast<unsigned>(std::max<std::size_t>(jobs, 1))));
+}
+
+/// Runs f(i) for i in [0, n) on `threads` threads.
+void parallel_for(std::size_t n, unsigned threads, const std::function<void(std::size_t)>& f) {
+  std::atomic<std::size_t> next{0};
+  auto worker = [&] {
+    for (std::size_t i = next++; i < n; i = next++) f(i);
+  };
+  const unsigned t = thread_count(threads, n);
+  std::vector<std::thread> pool;
+  for (unsigned k = 1; k < t; ++k) pool.emplace_back(worker);
+  worker();
+  for (auto& th : pool) th.join();
+}
+
+std::string num(double x, const char* f = "%.3g") {
+  char b[64];
+  std::snprintf(b, sizeof b, f, x);
+  return b;
+}
+
+SimulationResult simulate_run(const DiagnoseRun& run, const JointModelAtPose& m,
+                              const SimulationOptions& so) {
+  const RunData& d = *run.data;
+  const SampledReference ref(d.t, d.r);
+  InitialState x0 = initial_state_of(d);
+  x0.command_history = run.command_history;
+  return simulate(m, run.controller, ref, d.t, x0, so);
+}
+
+double rms_of(const RunData& d, const std::vector<double>& sim) {
+  if (sim.size() != d.size() || d.size() == 0) return kNaN;
+  double ss = 0.0;
+  for (std::size_t k = 0; k < d.size(); ++k) ss += (d.theta[k] - sim[k]) * (d.theta[k] - sim[k]);
+  return std::sqrt(ss / static_cast<double>(d.size()));
+}
+
+/// RMS over runs weighted by their sample counts (all samples of all runs).
+double pooled_rms(const std::vector<DiagnoseRun>& runs, const std::vector<double>& run_rms,
+                  const std::vector<std::size_t>& which) {
+  double ss = 0.0, n = 0.0;
+  for (std::size_t i : which) {
+    if (!std::isfinite(run_rms[i])) return kNaN;
+    const double m = static_cast<double>(runs[i].data->size());
+    ss += run_rms[i] * run_rms[i] * m;
+    n += m;
+  }
+  return n > 0 ? std::sqrt(ss / n) : kNaN;
+}
+
+/// The fit runs: at most `max_n`, spread over the runs ordered by kind and frequency.
+std::vector<std::size_t> choose_fit_runs(const std::vector<DiagnoseRun>& runs, std::size_t max_n) {
+  std::vector<std::size_t> order(runs.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  if (runs.size() <= max_n) return order;
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    if (runs[a].kind != runs[b].kind) return runs[a].kind < runs[b].kind;
+    return runs[a].freq_hz.value_or(0.0) < runs[b].freq_hz.value_or(0.0);
+  });
+  std::vector<std::size_t> out;
+  for (std::size_t k = 0; k < max_n; ++k) {
+    const std::size_t j = static_cast<std::size_t>(
+        std::floor((static_cast<double>(k) + 0.5) * static_cast<double>(runs.size()) /
+                   static_cast<double>(max_n)));
+    out.push_back(order[std::min(j, order.size() - 1)]);
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+/// Scales of the data, for starts and bounds.
+struct DataScales {
+  double v_max = 1.0;          ///< largest |v| [command unit]
+  double theta_dot_rms = 1.0;  ///< RMS of the measured θ̇ [position unit/s]
+  double theta_min = 0.0, theta_max = 0.0;
+};
+
+/// One effect kind's parameters as an output-error parameter block: names, starts, bounds.
+struct ParamBlock {
+  EffectKind kind;
+  std::vector<EffectParameter> params;
+  std::vector<double> start, lower, upper;
+};
+
+/// The implied torque residual n̂ = (θ̈ + C·θ̇)/β̃ − u along each fit run (inverse dynamics with the
+/// current model), with the measured θ, θ̇ at the same samples.
+struct TorqueResidual {
+  std::vector<double> n_hat, theta, theta_dot;
+};
+
+TorqueResidual torque_residual(const std::vector<DiagnoseRun>& runs,
+                               const std::vector<std::size_t>& fit_runs,
+                               const std::vector<SimulationResult>& sims, const Effects& current) {
+  TorqueResidual tr;
+  for (std::size_t i : fit_runs) {
+    const RunData& d = *runs[i].data;
+    const SimulationResult& s = sims[i];
+    if (!s.ok || s.damping.size() != d.size()) continue;
+    std::vector<double> dth, ddth;
+    local_quadratic_derivatives(d.t, d.theta, 0.01, dth, ddth);
+    // Skip the first and last 20 ms (one-sided fits) of each run.
+    for (std::size_t k = 0; k < d.size(); ++k) {
+      if (d.t[k] - d.t.front() < 0.02 || d.t.back() - d.t[k] < 0.02) continue;
+      const double bt = s.beta_tilde[k];
+      if (!(bt > 0.0)) continue;
+      const double u = amplifier(current, d.v[k]) + effect_torque(current, d.theta[k], dth[k]);
+      const double n = (ddth[k] + s.damping[k] * dth[k]) / bt - u;
+      if (!std::isfinite(n)) continue;
+      tr.n_hat.push_back(n);
+      tr.theta.push_back(d.theta[k]);
+      tr.theta_dot.push_back(dth[k]);
+    }
+  }
+  return tr;
+}
+
+/// Least squares n̂ ≈ X·b; returns b and R² (NaN when singular).
+Eigen::VectorXd regress(const std::vector<std::vector<double>>& cols, const std::vector<double>& y,
+                        double* r2) {
+  const auto n = static_cast<Eigen::Index>(y.size());
+  const auto p = static_cast<Eigen::Index>(cols.size());
+  Eigen::MatrixXd x(n, p);
+  Eigen::VectorXd yy(n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    yy(i) = y[static_cast<std::size_t>(i)];
+    for (Eigen::Index j = 0; j < p; ++j) x(i, j) = cols[static_cast<std::size_t>(j)][static_cast<std::size_t>(i)];
+  }
+  const Eigen::VectorXd b = x.colPivHouseholderQr().solve(yy);
+  if (r2 != nullptr) {
+    const double mean = yy.mean();
+    const double tot = (yy.array() - mean).square().sum();
+    const double res = (yy - x * b).squaredNorm();
+    *r2 = tot > 0 ? 1.0 - res / tot : kNaN;
+  }
+  return b;
+}
+
+/// Equation-error starts of the torque-like effects from n̂.
+void equation_error_start(EffectKind kind, const TorqueResidual& tr, const DataScales& sc,
+                          Effects& e) {
+  const std::size_t n = tr.n_hat.size();
+  if (n < 20) return;
+  std::vector<double> ones(n, 1.0);
+  switch (kind) {
+    case EffectKind::kCoulombFriction: {
+      std::vector<double> s(n);
+      for (std::size_t k = 0; k < n; ++k) s[k] = -std::tanh(tr.theta_dot[k] / e.coulomb_smoothing_rad_s);
+      const Eigen::VectorXd b = regress({s, ones}, tr.n_hat, nullptr);
+      e.coulomb_v = std::clamp(b(0), 0.0, sc.v_max);
+      break;
+    }
+    case EffectKind::kOffsetTorque: {
+      const Eigen::VectorXd b = regress({ones}, tr.n_hat, nullptr);
+      e.offset_v = std::clamp(b(0), -sc.v_max, sc.v_max);
+      break;
+    }
+    case EffectKind::kGravity: {
+      std::vector<double> s(n), c(n);
+      for (std::size_t k = 0; k < n; ++k) {
+        s[k] = std::sin(tr.theta[k]);
+        c[k] = std::cos(tr.theta[k]);
+      }
+      // −g·sin(θ + θ0) = −g·cos θ0·sin θ − g·sin θ0·cos θ
+      const Eigen::VectorXd b = regress({s, c}, tr.n_hat, nullptr);
+      e.gravity_v = std::min(std::hypot(b(0), b(1)), 2.0 * sc.v_max);
+      e.gravity_theta0_rad = std::atan2(-b(1), -b(0));
+      break;
+    }
+    case EffectKind::kCogging: {
+      // a·sin(2πθ/p + φ) = a cos φ·sin(2πθ/p) + a sin φ·cos(2πθ/p), best p on a log grid.
+      const double range = std::max(sc.theta_max - sc.theta_min, 1e-9);
+      double best_r2 = -kInf;
+      // Periods from range/400 to range/3: a torque periodic in θ shows at least three periods
+      // over the motion (a longer one is a spring or an offset, not cogging).
+      for (int g = 0; g < 80; ++g) {
+        const double p = range / 400.0 * std::pow(400.0 / 3.0, g / 79.0);
+        std::vector<double> s(n), c(n);
+        for (std::size_t k = 0; k < n; ++k) {
+          s[k] = std::sin(kTwoPi * tr.theta[k] / p);
+          c[k] = std::cos(kTwoPi * tr.theta[k] / p);
+        }
+        double r2 = kNaN;
+        const Eigen::VectorXd b = regress({s, c, ones}, tr.n_hat, &r2);
+        if (std::isfinite(r2) && r2 > best_r2) {
+          best_r2 = r2;
+          e.cogging_period_rad = p;
+          e.cogging_v = std::min(std::hypot(b(0), b(1)), sc.v_max);
+          e.cogging_phase_rad = std::atan2(b(1), b(0));
+        }
+      }
+      break;
+    }
+    default:
+      break;
+  }
+}
+
+/// The parameter block of `kind` with starts from `e` and bounds from the data scales.
+ParamBlock param_block(EffectKind kind, const Effects& e, const DataScales& sc) {
+  ParamBlock b;
+  b.kind = kind;
+  b.params = effect_parameters(kind);
+  for (const auto& p : b.params) {
+    const double x = e.*(p.member);
+    double lo = -kInf, hi = kInf;
+    const std::string name = p.name;
+    if (name == "coulomb_v") lo = 0.0, hi = 2.0 * sc.v_max;
+    if (name == "offset_v") lo = -sc.v_max, hi = sc.v_max;
+    if (name == "gravity_v") lo = -2.0 * sc.v_max, hi = 2.0 * sc.v_max;
+    if (name == "gravity_theta0_rad" || name == "cogging_phase_rad") lo = -4 * kTwoPi, hi = 4 * kTwoPi;
+    if (name == "cogging_v") lo = -sc.v_max, hi = sc.v_max;
+    if (name == "cogging_period_rad") {
+      lo = x / 1.3;
+      hi = std::min(x * 1.3, (sc.theta_max - sc.theta_min) / 3.0);
+      if (!(hi > lo)) hi = lo * 1.01;
+    }
+    if (name == "delay_s") lo = 0.0, hi = 0.2;
+    if (name == "saturation_v") lo = 0.02 * sc.v_max, hi = 3.0 * sc.v_max;
+    if (name == "deadzone_v") lo = 0.0, hi = 0.5 * sc.v_max;
+    b.start.push_back(std::clamp(x, lo, hi));
+    b.lower.push_back(lo);
+    b.upper.push_back(hi);
+  }
+  return b;
+}
+
+/// The output-error problem of the model with `kinds` active: p = [c_scale, β̃ scale, effect
+/// parameters of each kind in order]; the other fields of `base` stay fixed.
+OutputErrorProblem make_problem(const std::vector<DiagnoseRun>& runs,
+                                const std::vector<std::size_t>& which,
+                                const std::vector<ParamBlock>& blocks, const Effects& base,
+                                const ModelScales& start, const DiagnoseOptions& opt,
+                                const std::optional<AlphaModel>& alpha) {
+  OutputErrorProblem pr;
+  std::vector<const DiagnoseRun*> rs;
+  for (std::size_t i : which) {
+    pr.runs.push_back({runs[i].data, runs[i].controller, 1.0, runs[i].command_history});
+    rs.push_back(&runs[i]);
+  }
+  for (std::size_t k = 0; k < start.c.size(); ++k)
+    pr.parameters.push_back({"c_scale_" + std::to_string(k), start.c[k], 0.2, 5.0});
+  for (std::size_t k = 0; k < start.beta.size(); ++k)
+    pr.parameters.push_back({"beta_scale_" + std::to_string(k), start.beta[k], 0.2, 5.0});
+  for (const auto& b : blocks) {
+    for (std::size_t j = 0; j < b.params.size(); ++j)
+      pr.parameters.push_back({b.params[j].name, b.start[j], b.lower[j], b.upper[j]});
+  }
+  pr.simulation = opt.simulation;
+  pr.max_residuals_per_run = opt.max_residuals_per_run;
+  const std::size_t nc = start.c.size(), nb = start.beta.size();
+  pr.model = [rs, blocks, base, nc, nb, alpha](const double* p, std::size_t i) {
+    Effects e = base;
+    std::size_t at = nc + nb;
+    for (const auto& b : blocks) {
+      for (const auto& par : b.params) e.*(par.member) = p[at++];
+    }
+    ModelScales sc;
+    sc.c.assign(p, p + nc);
+    sc.beta.assign(p + nc, p + nc + nb);
+    return diagnosed_model(rs[i]->model, e, sc, alpha);
+  };
+  return pr;
+}
+
+/// The coefficient factors in fitted values p (shaped like `shape`).
+ModelScales scales_of(const ModelScales& shape, const std::vector<double>& p) {
+  ModelScales sc;
+  const auto nc = static_cast<std::ptrdiff_t>(shape.c.size());
+  const auto nb = static_cast<std::ptrdiff_t>(shape.beta.size());
+  sc.c.assign(p.begin(), p.begin() + nc);
+  sc.beta.assign(p.begin() + nc, p.begin() + nc + nb);
+  return sc;
+}
+
+/// Applies fitted values p to the blocks' effects.
+Effects effects_of(const std::vector<ParamBlock>& blocks, const Effects& base,
+                   const ModelScales& shape, const std::vector<double>& p) {
+  Effects e = base;
+  std::size_t at = shape.c.size() + shape.beta.size();
+  for (const auto& b : blocks) {
+    for (const auto& par : b.params) e.*(par.member) = p[at++];
+  }
+  return e;
+}
+
+/// Per-run RMS of the model (base effects `e`, scales) over `which` runs; NaN for failures.
+std::vector<double> run_rms_with(const std::vector<DiagnoseRun>& runs,
+                                 const std::vector<std::size_t>& which, const Effects& e,
+                                 const ModelScales& ms, const DiagnoseOptions& opt,
+                                 const std::optional<AlphaModel>& alpha) {
+  std::vector<double> out(runs.size(), kNaN);
+  parallel_for(which.size(), opt.threads, [&](std::size_t j) {
+    const std::size_t i = which[j];
+    const SimulationResult s =
+        simulate_run(runs[i], diagnosed_model(runs[i].model, e, ms, alpha), opt.simulation);
+    out[i] = s.ok ? rms_of(*runs[i].data, s.theta) : kNaN;
+  });
+  return out;
+}
+
+/// A 1-D scan of one parameter's start (delay, saturation, deadzone): the value of `values` with
+/// the lowest pooled RMS over the fit runs.
+double scan_start(const std::vector<DiagnoseRun>& runs, const std::vector<std::size_t>& fit_runs,
+                  Effects e, double Effects::*member, const std::vector<double>& values,
+                  const ModelScales& ms, const DiagnoseOptions& opt,
+                  const std::optional<AlphaModel>& alpha) {
+  double best = values.front(), best_rms = kInf;
+  for (double x : values) {
+    e.*member = x;
+    const double r = pooled_rms(runs, run_rms_with(runs, fit_runs, e, ms, opt, alpha), fit_runs);
+    if (std::isfinite(r) && r < best_rms) {
+      best_rms = r;
+      best = x;
+    }
+  }
+  return best;
+}
+
+/// Re-identification of the α-model with a candidate's effects in the plant input. The α-model is
+/// identified from the sine runs' steady states (section 2.3.5), which absorb an unmodelled effect
+/// (a spring shifts C and β̃ with ω, a delay adds phase, friction adds damping), breakpoints and
+/// all: a candidate added to that model would have to undo the distortion through a few
+/// coefficient factors, and misses. Here the local points are taken again with the plant input
+/// through the candidate's effects (effect_sine_point.hpp) and the α-model is fitted again
+/// (alpha_fit.hpp: breakpoints by the grid search, then the two-stage fit), with each pose's
+/// inertia as the runs' models have it, so the result replaces their α-model. Usable when the
+/// runs carry one α-model and sine runs under a P law at one kp.
+class Reidentifier {
+ public:
+  Reidentifier(const std::vector<DiagnoseRun>& runs, double sample_period_s)
+      : sample_period_s_(sample_period_s) {
+    if (runs.empty() || !runs.front().model.use_alpha) return;
+    const AlphaModel& a = runs.front().model.alpha;
+    options_.n_breakpoints = a.n_breakpoints;
+    // The grid search alone: its winner does not move with the small changes of the points a
+    // small effect makes, so the model is continuous in the effect's parameters there (the local
+    // refinement is not, and would let a candidate win by a luckier α-model alone).
+    options_.refine = false;
+    for (const DiagnoseRun& r : runs) {
+      if (!r.model.use_alpha || r.model.alpha.alpha != a.alpha ||
+          r.model.alpha.n_breakpoints != a.n_breakpoints || r.model.alpha.c_n1 != a.c_n1) {
+        return;  // runs with different α-models: not one model to replace
+      }
+      if (r.kind != "sine" || !r.freq_hz || !(*r.freq_hz > 0.0)) continue;
+      const Controller& c = r.controller;
+      if (!(c.kp > 0.0) || c.ki != 0.0 || c.kd != 0.0) continue;
+      if (options_.kp != c.kp && !sines_.empty()) continue;  // one kp (the first sine run's)
+      options_.kp = c.kp;
+      const RunData& d = *r.data;
+      const IndexRange w = steady_state_window(d.t, *r.freq_hz, 0.5 * (d.t.back() - d.t.front()));
+      if (w.size() < 8) continue;
+      // Poses by their inertia (a pose's runs share its model).
+      std::size_t pose = inertia_.size();
+      for (std::size_t k = 0; k < inertia_.size(); ++k) {
+        if (inertia_[k] == r.model.inertia) pose = k;
+      }
+      if (pose == inertia_.size()) inertia_.push_back(r.model.inertia);
+      sines_.push_back({&r, w, pose});
+    }
+    usable_ = sines_.size() >= options_.n_breakpoints + 1;
+  }
+
+  bool usable() const { return usable_; }
+
+  /// The α-model identified with effects `e` in the plant input; nullopt when it fails.
+  std::optional<AlphaModel> fit(const Effects& e) const {
+    if (!usable_) return std::nullopt;
+    const AlphaFitResult r = fit_alpha_model(points(e), options_);
+    if (!r.ok || !r.model.valid()) return std::nullopt;
+    return r.model;
+  }
+
+  /// The sine runs' local points with effects `e` in the plant input, by pose.
+  std::vector<AlphaFitPose> points(const Effects& e) const {
+    std::vector<AlphaFitPose> poses(inertia_.size());
+    for (std::size_t k = 0; k < poses.size(); ++k) poses[k].inertia = inertia_[k];
+    for (const SineRun& s : sines_) {
+      poses[s.pose].points.push_back(sine_point_with_effects(*s.run->data, s.window, *s.run->freq_hz,
+                                                             options_.kp, sample_period_s_, e));
+    }
+    return poses;
+  }
+
+  /// The α-model with effects `e` at the given breakpoints; nullopt when it fails.
+  std::optional<AlphaModel> fit_at(const Effects& e, const std::vector<double>& breakpoints) const {
+    if (!usable_) return std::nullopt;
+    const AlphaFitResult r = fit_alpha_model_at(points(e), breakpoints, options_);
+    if (!r.ok || !r.model.valid()) return std::nullopt;
+    return r.model;
+  }
+
+  /// The α-model with effects `e`: the grid winner (fit()), with `refined` also the winner refined
+  /// off the grid (as fit_dataset() does), and the models at the next `runners_up` best
+  /// breakpoint sets of the grid search.
+  std::vector<AlphaModel> variants(const Effects& e, std::size_t runners_up, bool refined) const {
+    std::vector<AlphaModel> out;
+    if (!usable_) return out;
+    const std::vector<AlphaFitPose> poses = points(e);
+    AlphaFitOptions o = options_;
+    o.keep_runners_up = runners_up;
+    o.refine = refined;
+    o.refine_max_evaluations = 150;
+    const AlphaFitResult r = fit_alpha_model(poses, o);
+    if (!r.ok || !r.model.valid()) return out;
+    out.push_back(r.model);
+    if (r.refined) {  // and the grid winner it started from
+      const AlphaFitResult g = fit_alpha_model(poses, options_);
+      if (g.ok && g.model.valid()) out.push_back(g.model);
+    }
+    for (const auto& bp : r.runners_up) {
+      const AlphaFitResult v = fit_alpha_model_at(poses, bp, o);
+      if (v.ok && v.model.valid()) out.push_back(v.model);
+    }
+    return out;
+  }
+
+ private:
+  struct SineRun {
+    const DiagnoseRun* run;
+    IndexRange window;
+    std::size_t pose;
+  };
+
+  double sample_period_s_ = 0.0;
+  AlphaFitOptions options_;
+  std::vector<double> inertia_;
+  std::vector<SineRun> sines_;
+  bool usable_ = false;
+};
+
+/// The new effect's parameters searched with the α-model re-identified at every value (unit
+/// coefficient factors).
+struct EffectSearch {
+  const std::vector<DiagnoseRun>* runs = nullptr;
+  const std::vector<std::size_t>* fit_runs = nullptr;
+  const Reidentifier* reid = nullptr;
+  const DiagnoseOptions* opt = nullptr;
+  const ParamBlock* block = nullptr;
+  Effects base;
+  ModelScales unit;  ///< factors 1, shaped like the model's
+  /// x = (k, o), the gravity term −g·sin(θ + θ0) = −k·sin θ − o·cos θ as a spring and an offset
+  /// (k = g·cos θ0, o = g·sin θ0): over a small range of θ the cost is nearly quadratic in (k, o)
+  /// but a curved valley in (g, θ0) when θ0 ≠ 0.
+  bool gravity_spring_offset = false;
+  double best_rms = kInf;
+  Effects best;
+
+  /// Pooled RMS over the fit runs of the model with the block's parameters x.
+  double evaluate(const double* x) {
+    Effects e = base;
+    if (gravity_spring_offset) {
+      e.gravity_v = std::hypot(x[0], x[1]);
+      e.gravity_theta0_rad = std::atan2(x[1], x[0]);
+    } else {
+      for (std::size_t j = 0; j < block->params.size(); ++j) e.*(block->params[j].member) = x[j];
+    }
+    const std::optional<AlphaModel> alpha = reid->fit(e);
+    if (!alpha) return 1e30;
+    const double r = pooled_rms(*runs, run_rms_with(*runs, *fit_runs, e, unit, *opt, alpha), *fit_runs);
+    if (!std::isfinite(r)) return 1e30;
+    if (r < best_rms) {
+      best_rms = r;
+      best = e;
+    }
+    return r;
+  }
+};
+
+double effect_search_objective(unsigned n, const double* x, double* grad, void* data) {
+  (void)n;
+  (void)grad;
+  return static_cast<EffectSearch*>(data)->evaluate(x);
+}
+
+/// Nelder-Mead (NLopt, bound-constrained; the cost has kinks where a limit or deadzone starts to
+/// act) from `starts` on the block's parameters, each at most `max_evaluations` evaluations.
+/// The first simplex step of each parameter is `step`.
+void search_effect(EffectSearch& s, const std::vector<std::vector<double>>& starts,
+                   const std::vector<double>& step, int max_evaluations) {
+  const unsigned nx = static_cast<unsigned>(s.block->params.size());
+  if (nx == 0) return;
+  for (const auto& x0 : starts) {
+    std::vector<double> x = x0;
+    for (unsigned j = 0; j < nx; ++j) x[j] = std::clamp(x[j], s.block->lower[j], s.block->upper[j]);
+    nlopt_opt o = nlopt_create(NLOPT_LN_NELDERMEAD, nx);
+    if (o == nullptr) return;
+    std::vector<double> lb = s.block->lower, ub = s.block->upper;
+    for (unsigned j = 0; j < nx; ++j) {  // NLopt wants finite bounds for the simplex steps
+      if (!std::isfinite(lb[j])) lb[j] = -HUGE_VAL;
+      if (!std::isfinite(ub[j])) ub[j] = HUGE_VAL;
+    }
+    nlopt_set_lower_bounds(o, lb.data());
+    nlopt_set_upper_bounds(o, ub.data());
+    nlopt_set_initial_step(o, step.data());
+    nlopt_set_min_objective(o, effect_search_objective, &s);
+    nlopt_set_ftol_rel(o, 1e-4);
+    nlopt_set_maxeval(o, max_evaluations);
+    double f = 0.0;
+    (void)nlopt_optimize(o, x.data(), &f);  // the best point seen is kept in s
+    nlopt_destroy(o);
+  }
+}
+
+/// The breakpoint sets that fit the sine points about equally well can predict the other runs
+/// quite differently (the square runs' α ≈ 0 lies below the sine points' α). Among the variants
+/// of the α-model re-identified with effects `e` (reid.variants()) and `also`, the one with the
+/// lowest pooled RMS over the fit runs (unit factors); nullopt when none simulates. Every
+/// candidate is given the same choice; `none` also the refined winner (`refined`) and the model
+/// as given (`also`): the local refinement moves the breakpoints discontinuously with the data,
+/// and offered to a candidate it would let it win by a luckier α-model alone, so the benefit of
+/// the doubt goes to `none`.
+std::optional<AlphaModel> best_variant(const Reidentifier& reid, const Effects& e,
+                                       const std::vector<DiagnoseRun>& runs,
+                                       const std::vector<std::size_t>& fit_runs,
+                                       const ModelScales& unit, const DiagnoseOptions& opt,
+                                       bool refined,
+                                       const std::optional<AlphaModel>& also = std::nullopt,
+                                       double* rms = nullptr) {
+  std::vector<AlphaModel> models = reid.variants(e, kAlphaVariants, refined);
+  if (also) models.push_back(*also);
+  std::optional<AlphaModel> best;
+  double best_rms = kInf;
+  for (const AlphaModel& m : models) {
+    const std::optional<AlphaModel> a = m;
+    const double r = pooled_rms(runs, run_rms_with(runs, fit_runs, e, unit, opt, a), fit_runs);
+    if (std::isfinite(r) && r < best_rms) {
+      best_rms = r;
+      best = m;
+    }
+  }
+  if (rms != nullptr) *rms = best_rms;
+  return best;
+}
+
+/// The search of a new effect of `kind` with re-identification (EffectSearch; `s` has all but the
+/// block set): a coarse scan of the effect's main parameter on a grid scaled by the data (largest
+/// command v_max, gain kp), with the equation-error start `e` among the points, then Nelder-Mead
+/// from the best point (and the second best when nearly as good). Returns false when no evaluation succeeded.
+bool search_reidentified(EffectKind kind, const Effects& e, const DataScales& sc, double kp,
+                         EffectSearch& s) {
+  ParamBlock block = param_block(kind, e, sc);
+  if (kind == EffectKind::kGravity) {  // searched as (spring k, offset o): see EffectSearch
+    const double g = block.start[0], th0 = block.start[1];
+    block.start = {g * std::cos(th0), g * std::sin(th0)};
+    block.lower = {-2.0 * sc.v_max, -sc.v_max};
+    block.upper = {2.0 * sc.v_max, sc.v_max};
+    s.gravity_spring_offset = true;
+  }
+  s.block = &block;
+  const double vm = sc.v_max;
+  std::vector<std::vector<double>> grid{block.start};
+  std::vector<double> step;
+  for (std::size_t j = 0; j < block.params.size(); ++j) {
+    const std::string name = block.params[j].name;
+    const double x = block.start[j];
+    double st = 0.5 * std::abs(x);
+    if (name == "coulomb_v" || name == "offset_v" || name == "cogging_v") st = std::max(st, 0.02 * vm);
+    if (name == "gravity_v") st = 0.1 * kp;  // the spring k
+    if (name == "gravity_theta0_rad") st = std::max(0.5 * std::abs(block.start[1]), 0.02 * vm);  // the offset o
+    if (name == "cogging_phase_rad") st = 0.5;
+    if (name == "cogging_period_rad") st = 0.02 * x;
+    if (name == "saturation_v") st = 0.1 * vm;
+    step.push_back(st);  // delay and deadzone: set from the chosen start below
+  }
+  switch (kind) {
+    case EffectKind::kCoulombFriction:
+      for (double f : {0.005, 0.01, 0.02, 0.04, 0.08, 0.16, 0.3}) grid.push_back({f * vm});
+      break;
+    case EffectKind::kOffsetTorque:
+      grid.push_back({0.0});
+      break;
+    case EffectKind::kGravity: {
+      // A spring k of either sign, up to about the controller's stiffness kp, in ratios of about
+      // 1.4 (a spring the model has absorbed has a narrow valley), with no offset (a pure spring)
+      // and with the equation-error start's offset o (whose spring, from a model that absorbed
+      // it, can have the wrong sign).
+      const double o = block.start[1];
+      for (double f : {-0.3, -0.1, 0.035, 0.05, 0.07, 0.1, 0.14, 0.2, 0.28, 0.4, 0.56}) {
+        grid.push_back({f * kp, 0.0});
+        if (std::abs(o) > 0.005 * vm) grid.push_back({f * kp, o});
+      }
+      break;
+    }
+    case EffectKind::kTimeDelay:
+      grid.clear();
+      for (double x : {0.0005, 0.001, 0.002, 0.004, 0.008, 0.016, 0.032}) grid.push_back({x});
+      break;
+    case EffectKind::kSaturation:
+      grid.clear();
+      for (double f : {0.95, 0.8, 0.6, 0.4, 0.25}) grid.push_back({f * vm});
+      break;
+    case EffectKind::kDeadzone:
+      grid.clear();
+      for (double f : {0.005, 0.01, 0.02, 0.05, 0.1, 0.2}) grid.push_back({f * vm});
+      break;
+    default:
+      break;
+  }
+  std::vector<std::pair<double, std::size_t>> scored;
+  for (std::size_t g = 0; g < grid.size(); ++g) {
+    for (std::size_t j = 0; j < grid[g].size(); ++j)
+      grid[g][j] = std::clamp(grid[g][j], block.lower[j], block.upper[j]);
+    scored.push_back({s.evaluate(grid[g].data()), g});
+  }
+  std::sort(scored.begin(), scored.end());
+  // Nelder-Mead from the best point, and from the second best when it is nearly as good (a
+  // second valley).
+  std::vector<std::vector<double>> starts;
+  for (std::size_t k = 0; k < std::min<std::size_t>(2, scored.size()); ++k) {
+    if (scored[k].first < 1e29 && (k == 0 || scored[k].first <= 1.2 * scored[0].first))
+      starts.push_back(grid[scored[k].second]);
+  }
+  // Steps no larger than the grid's spacing near the start.
+  if (kind == EffectKind::kTimeDelay && !starts.empty()) step[0] = 0.4 * starts.front()[0];
+  if (kind == EffectKind::kDeadzone && !starts.empty()) step[0] = 0.4 * starts.front()[0];
+  search_effect(s, starts, step, 6 + 6 * static_cast<int>(block.params.size()));
+  s.block = nullptr;
+  return std::isfinite(s.best_rms);
+}
+
+/// Residual location and its words.
+ResidualLocation locate(const std::vector<DiagnoseRun>& runs,
+                        const std::vector<std::vector<double>>& sims) {
+  ResidualLocation loc;
+  loc.run_rms.assign(runs.size(), kNaN);
+  double e_all = 0, n_all = 0;
+  double e_rev = 0, n_rev = 0, e_jump = 0, n_jump = 0, e_hv = 0, n_hv = 0, e_lv = 0, n_lv = 0,
+         e_ha = 0, n_ha = 0;
+  std::vector<std::pair<double, double>> sine_rel;  // (freq, RMS / amplitude)
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    const RunData& d = *runs[i].data;
+    if (sims[i].size() != d.size() || d.size() < 10) continue;
+    loc.run_rms[i] = rms_of(d, sims[i]);
+    std::vector<double> dth, ddth;
+    local_quadratic_derivatives(d.t, d.theta, 0.01, dth, ddth);
+    const std::vector<double> alpha = alpha_of_command(d.t, d.v, 0.01);
+    double dth_max = 0;
+    for (double x : dth) dth_max = std::max(dth_max, std::abs(x));
+    std::vector<double> av(d.size()), aa(alpha.size());
+    for (std::size_t k = 0; k < d.size(); ++k) av[k] = std::abs(d.v[k]);
+    for (std::size_t k = 0; k < alpha.size(); ++k) aa[k] = alpha[k];
+    std::vector<double> sorted_v = av, sorted_a = aa;
+    std::sort(sorted_v.begin(), sorted_v.end());
+    std::sort(sorted_a.begin(), sorted_a.end());
+    const double v_hi = sorted_v[sorted_v.size() * 9 / 10], v_lo = sorted_v[sorted_v.size() / 10];
+    const double a_hi = sorted_a[sorted_a.size() * 9 / 10];
+    // Reference jumps: steps larger than 20× the median |Δr|, and more than 1 % of the r range.
+    std::vector<double> dr;
+    double r_min = kInf, r_max = -kInf;
+    for (std::size_t k = 1; k < d.size(); ++k) dr.push_back(std::abs(d.r[k] - d.r[k - 1]));
+    for (double r : d.r) r_min = std::min(r_min, r), r_max = std::max(r_max, r);
+    std::vector<double> drs = dr;
+    std::sort(drs.begin(), drs.end());
+    const double dr_med = drs.empty() ? 0.0 : drs[drs.size() / 2];
+    std::vector<double> jumps;
+    for (std::size_t k = 1; k < d.size(); ++k) {
+      if (dr[k - 1] > 20.0 * dr_med && dr[k - 1] > 0.01 * (r_max - r_min)) jumps.push_back(d.t[k]);
+    }
+    std::size_t jj = 0;
+    for (std::size_t k = 0; k < d.size(); ++k) {
+      const double e2 = (d.theta[k] - sims[i][k]) * (d.theta[k] - sims[i][k]);
+      e_all += e2;
+      n_all += 1;
+      if (std::abs(dth[k]) < 0.1 * dth_max) e_rev += e2, n_rev += 1;
+      while (jj < jumps.size() && jumps[jj] + 0.15 < d.t[k]) ++jj;
+      if (jj < jumps.size() && d.t[k] >= jumps[jj] && d.t[k] <= jumps[jj] + 0.15) e_jump += e2, n_jump += 1;
+      if (av[k] >= v_hi) e_hv += e2, n_hv += 1;
+      if (av[k] <= v_lo) e_lv += e2, n_lv += 1;
+      if (aa[k] >= a_hi) e_ha += e2, n_ha += 1;
+    }
+    if (runs[i].kind == "sine" && runs[i].freq_hz) {
+      const double amp = 0.5 * (r_max - r_min);
+      if (amp > 0) sine_rel.push_back({*runs[i].freq_hz, loc.run_rms[i] / amp});
+    }
+  }
+  if (!(n_all > 0)) return loc;
+  loc.rms = std::sqrt(e_all / n_all);
+  auto conc = [&](double e, double n) {
+    return (n > 0 && e_all > 0) ? (e / e_all) / (n / n_all) : kNaN;
+  };
+  loc.reversal_concentration = conc(e_rev, n_rev);
+  loc.jump_concentration = n_jump > 0 ? conc(e_jump, n_jump) : kNaN;
+  loc.high_command_concentration = conc(e_hv, n_hv);
+  loc.low_command_concentration = conc(e_lv, n_lv);
+  loc.high_alpha_concentration = conc(e_ha, n_ha);
+  if (sine_rel.size() >= 4) {
+    std::sort(sine_rel.begin(), sine_rel.end());
+    const std::size_t h = sine_rel.size() / 2;
+    double lo = 0, hi = 0;
+    for (std::size_t k = 0; k < h; ++k) lo += sine_rel[k].second;
+    for (std::size_t k = h; k < sine_rel.size(); ++k) hi += sine_rel[k].second;
+    lo /= static_cast<double>(h);
+    hi /= static_cast<double>(sine_rel.size() - h);
+    loc.low_vs_high_frequency = hi > 0 ? lo / hi : kNaN;
+  }
+  // Words.
+  auto say = [&](double c, const std::string& where) {
+    if (std::isfinite(c) && c >= 1.5)
+      loc.findings.push_back("errors concentrate " + where + ": " + num(c, "%.1f") +
+                             "× their share of the samples");
+  };
+  say(loc.reversal_concentration, "at velocity reversals (|θ̇| below 10 % of its largest value)");
+  say(loc.jump_concentration, "in the 0.15 s after reference jumps (timing, transients)");
+  say(loc.high_command_concentration, "where |v| is largest (top 10 % of each run)");
+  say(loc.low_command_concentration, "where |v| is smallest (bottom 10 % of each run)");
+  say(loc.high_alpha_concentration, "where α is largest (top 10 % of each run)");
+  if (std::isfinite(loc.low_vs_high_frequency)) {
+    if (loc.low_vs_high_frequency >= 1.5) {
+      loc.findings.push_back("errors concentrate in the low-frequency sine runs: their RMS error "
+                             "relative to the amplitude is " + num(loc.low_vs_high_frequency, "%.1f") +
+                             "× that of the high-frequency ones");
+    } else if (loc.low_vs_high_frequency <= 1.0 / 1.5) {
+      loc.findings.push_back("errors concentrate in the high-frequency sine runs: their RMS error "
+                             "relative to the amplitude is " + num(1.0 / loc.low_vs_high_frequency, "%.1f") +
+                             "× that of the low-frequency ones");
+    }
+  }
+  // The worst runs.
+  std::vector<std::size_t> order;
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    if (std::isfinite(loc.run_rms[i])) order.push_back(i);
+  }
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return loc.run_rms[a] > loc.run_rms[b]; });
+  if (order.size() >= 2) {
+    std::string s = "largest errors in runs ";
+    for (std::size_t k = 0; k < std::min<std::size_t>(3, order.size()); ++k) {
+      s += (k ? ", " : "") + runs[order[k]].name + " (RMS " + num(loc.run_rms[order[k]]) + ")";
+    }
+    s += "; overall RMS " + num(loc.rms);
+    loc.findings.push_back(s);
+  }
+  if (loc.findings.size() <= 1) {
+    loc.findings.insert(loc.findings.begin(),
+                        "the residual is spread over the state: no concentration of 1.5× or more "
+                        "at reversals, jumps, large or small |v| or α");
+  }
+  return loc;
+}
+
+}  // namespace
+
+JointModelAtPose diagnosed_model(const JointModelAtPose& base, const Effects& e,
+                                 const ModelScales& scales, const std::optional<AlphaModel>& alpha) {
+  JointModelAtPose m = base;
+  if (alpha) m.alpha = *alpha;
+  auto factor = [](const std::vector<double>& f, std::size_t k) {
+    return f.empty() ? 1.0 : f[std::min(k, f.size() - 1)];
+  };
+  m.c_linear *= factor(scales.c, 0);
+  m.beta_tilde_linear *= factor(scales.beta, 0);
+  // C_n = 1/(C_n1·I) (eq. (40)) and β̃_j = 1/(β̃_j1·I) (eq. (42)): a factor f on C_n divides C_n1.
+  for (std::size_t k = 0; k < m.alpha.n_breakpoints; ++k) m.alpha.c_n1[k] /= factor(scales.c, k);
+  m.alpha.beta_n1[0] /= factor(scales.beta, 0);
+  m.alpha.beta_n1[1] /= factor(scales.beta, 1);
+  m.effects = e;
+  return m;
+}
+
+std::vector<std::vector<double>> simulate_diagnosed(const std::vector<DiagnoseRun>& runs,
+                                                    const Effects& e,
+                                                    const ModelScales& scales,
+                                                    const SimulationOptions& simulation,
+                                                    unsigned threads,
+                                                    const std::optional<AlphaModel>& alpha) {
+  std::vector<std::vector<double>> out(runs.size());
+  parallel_for(runs.size(), threads, [&](std::size_t i) {
+    const SimulationResult s =
+        simulate_run(runs[i], diagnosed_model(runs[i].model, e, scales, alpha), simulation);
+    if (s.ok) out[i] = s.theta;
+  });
+  return out;
+}
+
+DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseOptions& opt) {
+  const auto t_start = std::chrono::steady_clock::now();
+  DiagnoseResult res;
+  if (runs_in.empty()) {
+    res.message = "no runs to diagnose";
+    return res;
+  }
+  for (std::size_t i = 0; i < runs_in.size(); ++i) {
+    if (runs_in[i].data == nullptr || runs_in[i].data->size() < 50) {
+      res.message = "run " + runs_in[i].name + " has fewer than 50 samples";
+      return res;
+    }
+  }
+  std::vector<EffectKind> catalogue = opt.candidates;
+  if (catalogue.empty()) catalogue.assign(kAllEffectKinds.begin(), kAllEffectKinds.end());
+  // `none` first: the others are judged against it.
+  catalogue.erase(std::remove(catalogue.begin(), catalogue.end(), EffectKind::kNone), catalogue.end());
+  catalogue.insert(catalogue.begin(), EffectKind::kNone);
+
+  // All runs share the effects of the first run's model as the starting point.
+  Effects current = runs_in.front().model.effects;
+  ModelScales ms;  // the coefficient factors: one per α-model breakpoint and β̃ end, or 1 and 1
+  if (runs_in.front().model.use_alpha) {
+    ms.c.assign(runs_in.front().model.alpha.n_breakpoints, 1.0);
+    ms.beta.assign(2, 1.0);
+  }
+  const std::vector<std::size_t> fit_runs = choose_fit_runs(runs_in, opt.max_fit_runs);
+  res.fit_runs = fit_runs;
+  // The fit runs cut to their last fit_window_s (the other runs are not used for fitting).
+  std::vector<RunData> windows(fit_runs.size());
+  std::vector<DiagnoseRun> runs = runs_in;
+  for (std::size_t j = 0; j < fit_runs.size(); ++j) {
+    const RunData& d = *runs_in[fit_runs[j]].data;
+    std::size_t k0 = 0;
+    if (opt.fit_window_s > 0.0) {
+      while (k0 + 50 < d.size() && d.t.back() - d.t[k0] > opt.fit_window_s) ++k0;
+    }
+    RunData& w = windows[j];
+    // The α filter and the delay line start as the run left them: 0.3 s of commands before.
+    const std::size_t h0 = k0 > 300 ? k0 - 300 : 0;
+    runs[fit_runs[j]].command_history.assign(d.v.begin() + static_cast<std::ptrdiff_t>(h0),
+                                             d.v.begin() + static_cast<std::ptrdiff_t>(k0));
+    w.t.assign(d.t.begin() + static_cast<std::ptrdiff_t>(k0), d.t.end());
+    w.r.assign(d.r.begin() + static_cast<std::ptrdiff_t>(k0), d.r.end());
+    w.theta.assign(d.theta.begin() + static_cast<std::ptrdiff_t>(k0), d.theta.end());
+    w.v.assign(d.v.begin() + static_cast<std::ptrdiff_t>(k0), d.v.end());
+    runs[fit_runs[j]].data = &w;
+  }
+  std::vector<std::size_t> all(runs.size());
+  for (std::size_t i = 0; i < all.size(); ++i) all[i] = i;
+
+  DataScales sc;
+  {
+    double vd2 = 0, n = 0;
+    sc.theta_min = kInf;
+    sc.theta_max = -kInf;
+    for (std::size_t i : fit_runs) {
+      const RunData& d = *runs[i].data;
+      std::vector<double> dth, ddth;
+      local_quadratic_derivatives(d.t, d.theta, 0.01, dth, ddth);
+      for (std::size_t k = 0; k < d.size(); ++k) {
+        sc.v_max = std::max(sc.v_max == 1.0 && k == 0 && i == fit_runs.front() ? 0.0 : sc.v_max,
+                            std::abs(d.v[k]));
+        vd2 += dth[k] * dth[k];
+        n += 1;
+        sc.theta_min = std::min(sc.theta_min, d.theta[k]);
+        sc.theta_max = std::max(sc.theta_max, d.theta[k]);
+      }
+    }
+    if (!(sc.v_max > 0)) sc.v_max = 1.0;
+    sc.theta_dot_rms = n > 0 ? std::sqrt(vd2 / n) : 1.0;
+    if (!(sc.theta_dot_rms > 0)) sc.theta_dot_rms = 1.0;
+  }
+  // The Coulomb term's smoothing: 1 % of the RMS velocity (a sharp switch on the data's scale).
+  if (!(current.coulomb_v > 0.0)) current.coulomb_smoothing_rad_s = 0.01 * sc.theta_dot_rms;
+
+  // Folds: the first and the second half (in time) of every fit window, each started from the
+  // measured state with its command history. Both folds see every run, so the model's
+  // coefficient factors stay determined; fitting one half and predicting the other tests the
+  // effect on data it was not fitted on.
+  std::vector<RunData> halves(2 * fit_runs.size());
+  std::vector<std::size_t> fold[2];
+  for (std::size_t j = 0; j < fit_runs.size(); ++j) {
+    const DiagnoseRun src = runs[fit_runs[j]];  // a copy: runs grows below
+    const RunData& w = *src.data;
+    const std::size_t mid = w.size() / 2;
+    for (int f = 0; f < 2; ++f) {
+      const std::size_t a = f == 0 ? 0 : mid, b = f == 0 ? mid : w.size();
+      if (b - a < 50) continue;
+      RunData& h = halves[2 * j + static_cast<std::size_t>(f)];
+      auto cut = [&](const std::vector<double>& x) {
+        return std::vector<double>(x.begin() + static_cast<std::ptrdiff_t>(a),
+                                   x.begin() + static_cast<std::ptrdiff_t>(b));
+      };
+      h.t = cut(w.t);
+      h.r = cut(w.r);
+      h.theta = cut(w.theta);
+      h.v = cut(w.v);
+      DiagnoseRun hr = src;
+      hr.data = &h;
+      if (f == 1) {  // history: the commands before the second half
+        std::vector<double> hist = src.command_history;
+        hist.insert(hist.end(), w.v.begin(), w.v.begin() + static_cast<std::ptrdiff_t>(mid));
+        if (hist.size() > 300) hist.erase(hist.begin(), hist.end() - 300);
+        hr.command_history = std::move(hist);
+      }
+      fold[f].push_back(runs.size());
+      runs.push_back(std::move(hr));
+    }
+  }
+  const bool can_cv = !fold[0].empty() && !fold[1].empty();
+
+  const std::vector<std::vector<double>> sims0 = simulate_diagnosed(runs_in, current, ms, opt.simulation, opt.threads);
+  res.before = locate(runs_in, sims0);
+  res.error_before = res.before.rms;
+  std::vector<EffectKind> named_kinds;  // active kinds fitted each round
+  for (EffectKind k : kAllEffectKinds) {
+    if (effect_active(current, k)) named_kinds.push_back(k);
+  }
+
+  const std::vector<DiagnoseRun> no_runs;
+  // (runs_in must outlive reid: it keeps pointers to the sine runs)
+  Reidentifier reid(opt.reidentify ? runs_in : no_runs, opt.simulation.loop_period_s);
+  const ModelScales unit_scales = ms;
+  std::optional<AlphaModel> alpha;  // the re-identified α-model in use (nullopt: the runs' own)
+  for (std::size_t round = 0; round < opt.max_effects; ++round) {
+    DiagnoseRound rd;
+    {
+      const auto rr = run_rms_with(runs_in, all, current, ms, opt, alpha);
+      rd.error_before = pooled_rms(runs_in, rr, all);
+    }
+    // The current model's simulations along the fit runs, for the equation-error starts.
+    std::vector<SimulationResult> fit_sims(runs.size());
+    parallel_for(fit_runs.size(), opt.threads, [&](std::size_t j) {
+      const std::size_t i = fit_runs[j];
+      fit_sims[i] = simulate_run(runs[i], diagnosed_model(runs[i].model, current, ms, alpha), opt.simulation);
+    });
+    const TorqueResidual tr = torque_residual(runs, fit_runs, fit_sims, current);
+    double none_train_rms = kNaN;
+    // Candidates fitted but not yet cross-validated: blocks and values, by catalogue position.
+    std::vector<std::pair<std::vector<ParamBlock>, std::vector<double>>> pending(catalogue.size());
+    double none_unit_rms = kNaN;  // `none`'s RMS over the fit runs with its α-model, unit factors
+    const std::optional<AlphaModel> none_alpha =
+        reid.usable() ? best_variant(reid, current, runs, fit_runs, unit_scales, opt, true,
+                                     alpha ? alpha : std::optional<AlphaModel>(runs_in.front().model.alpha),
+                                     &none_unit_rms)
+                      : std::nullopt;
+
+    // 2-fold cross-validation of a candidate fitted on all fit runs (`values`, `blocks`).
+    auto cross_validate = [&](CandidateScore& cand, const std::vector<ParamBlock>& blocks,
+                              const std::vector<double>& values) {
+      const Effects base = current;
+      double ss = 0.0, n = 0.0;
+      for (int f = 0; f < 2; ++f) {
+        OutputErrorProblem pf = make_problem(runs, fold[f], blocks, base, ms, opt, cand.alpha);
+        for (std::size_t j = 0; j < pf.parameters.size(); ++j)
+          pf.parameters[j].initial = std::clamp(values[j], pf.parameters[j].lower, pf.parameters[j].upper);
+        OutputErrorOptions of;
+        of.threads = opt.threads;
+        of.max_iterations = 8;
+        const OutputErrorResult r = fit_output_error(pf, of);
+        const std::vector<double>& p = r.ok ? r.values : values;
+        const Effects ef = effects_of(blocks, base, ms, p);
+        const std::vector<std::size_t>& held = fold[1 - f];
+        const auto rr = run_rms_with(runs, held, ef, scales_of(ms, p), opt, cand.alpha);
+        const double fr = pooled_rms(runs, rr, held);
+        cand.fold_scores[static_cast<std::size_t>(1 - f)] = std::isfinite(fr) ? fr : kInf;
+        for (std::size_t i : held) {
+          const double m = static_cast<double>(runs[i].data->size());
+          ss += std::isfinite(rr[i]) ? rr[i] * rr[i] * m : kInf;
+          n += m;
+        }
+      }
+      cand.score = n > 0 ? std::sqrt(ss / n) : kInf;
+      cand.cross_validated = true;
+      cand.message.clear();
+    };
+    // The output-error parameter blocks of the effects already named and of a new `kind`
+    // (none: no new block), with starts from `e`.
+    auto blocks_with = [&](EffectKind kind, const Effects& e) {
+      std::vector<ParamBlock> blocks;
+      for (EffectKind k : named_kinds) blocks.push_back(param_block(k, e, sc));
+      if (kind != EffectKind::kNone) blocks.push_back(param_block(kind, e, sc));
+      return blocks;
+    };
+    // A candidate fitted on all fit runs; cross-validated now when `cv` (else its blocks and
+    // values are left in *later for cross_validate()).
+    auto fit_candidate = [&](EffectKind kind, const Effects& e, const ModelScales& start_scales,
+                             const std::optional<AlphaModel>& cand_alpha, bool searched, bool cv,
+                             std::pair<std::vector<ParamBlock>, std::vector<double>>* later) {
+      CandidateScore cand;
+      cand.effect = kind;
+      const std::vector<ParamBlock> blocks = blocks_with(kind, e);
+      Effects base = current;
+      // Fit on all fit runs, then on each fold from there.
+      OutputErrorProblem pr = make_problem(runs, fit_runs, blocks, base, start_scales, opt, cand_alpha);
+      OutputErrorOptions oo;
+      oo.threads = opt.threads;
+      oo.max_iterations = searched ? 10 : 15;  // the search has found the valley
+      // The command-path effects have cost functions with several minima (a delay against a
+      // lightly damped resonance; a limit or deadzone that is inactive at its start): extra starts
+      // (unless the search above has already looked).
+      if (!searched) {
+        const std::size_t at = pr.parameters.size() - 1;  // the new effect's (only) parameter
+        std::vector<double> extra;
+        if (kind == EffectKind::kTimeDelay) extra = {0.001, 0.004, 0.012};
+        if (kind == EffectKind::kSaturation) extra = {0.8 * sc.v_max, 0.5 * sc.v_max, 0.3 * sc.v_max};
+        if (kind == EffectKind::kDeadzone) extra = {0.01 * sc.v_max, 0.05 * sc.v_max};
+        for (double x : extra) {
+          std::vector<double> p0;
+          for (const auto& par : pr.parameters) p0.push_back(par.initial);
+          p0[at] = std::clamp(x, pr.parameters[at].lower, pr.parameters[at].upper);
+          if (std::abs(p0[at] - pr.parameters[at].initial) > 1e-3 * std::abs(p0[at]))
+            oo.extra_starts.push_back(p0);
+        }
+      }
+      const OutputErrorResult full = fit_output_error(pr, oo);
+      if (!full.ok) {
+        cand.message = full.message;
+        return cand;
+      }
+      cand.ok = true;
+      cand.reidentified = searched;
+      cand.alpha = cand_alpha;
+      cand.scales = scales_of(ms, full.values);
+      cand.effects = effects_of(blocks, base, ms, full.values);
+      cand.training_rms = full.rms;
+      const bool hopeless = kind != EffectKind::kNone && std::isfinite(none_train_rms) &&
+                            !(full.rms <= (1.0 - 0.5 * opt.significance) * none_train_rms);
+      if (hopeless) {
+        cand.score = full.rms;
+        cand.fold_scores = {full.rms, full.rms};
+        cand.message = "training RMS not below (1 − significance/2) × that of none: not cross-validated";
+        cand.cross_validated = false;
+      } else if (can_cv && cv) {
+        cross_validate(cand, blocks, full.values);
+      } else if (can_cv) {
+        cand.score = full.rms;
+        cand.fold_scores = {full.rms, full.rms};
+        cand.cross_validated = false;
+        cand.message = "not cross-validated: its training RMS is not among the two lowest";
+        if (later != nullptr) *later = {blocks, full.values};
+      } else {
+        cand.score = full.rms;
+        cand.fold_scores = {full.rms, full.rms};
+      }
+      const auto rr_all = run_rms_with(runs_in, all, cand.effects, cand.scales, opt, cand_alpha);
+      cand.error_after = pooled_rms(runs_in, rr_all, all);
+      return cand;
+    };
+    // A candidate not fitted further: its search result, scored by its search RMS.
+    auto not_fitted = [&](EffectKind kind, const Effects& e, const std::optional<AlphaModel>& a,
+                          double found_rms, const std::string& why) {
+      CandidateScore c;
+      c.effect = kind;
+      c.ok = true;
+      c.reidentified = true;
+      c.effects = e;
+      c.scales = unit_scales;
+      c.alpha = a;
+      c.training_rms = c.score = found_rms;
+      c.fold_scores = {found_rms, found_rms};
+      c.cross_validated = false;
+      c.message = why;
+      return c;
+    };
+    // Searched candidates waiting for their output-error fit.
+    struct DeferredFit {
+      std::size_t index;  ///< in rd.candidates
+      Effects effects;
+      std::optional<AlphaModel> alpha;
+      double found_rms;
+    };
+    std::vector<DeferredFit> deferred;
+    for (EffectKind kind : catalogue) {
+      CandidateScore cand;
+      cand.effect = kind;
+      const bool already = std::find(named_kinds.begin(), named_kinds.end(), kind) != named_kinds.end();
+      if (already) {
+        cand.message = "already in the model";
+        rd.candidates.push_back(cand);
+        continue;
+      }
+      // Starts of the new effect.
+      Effects e = current;
+      switch (kind) {
+        case EffectKind::kCoulombFriction:
+        case EffectKind::kOffsetTorque:
+        case EffectKind::kGravity:
+        case EffectKind::kCogging:
+          equation_error_start(kind, tr, sc, e);
+          break;
+        case EffectKind::kTimeDelay:
+          if (reid.usable()) break;  // scanned with re-identification below
+          e.delay_s = scan_start(runs, fit_runs, e, &Effects::delay_s,
+                                 {0.0005, 0.001, 0.002, 0.004, 0.008, 0.016, 0.032}, ms, opt, alpha);
+          break;
+        case EffectKind::kSaturation:
+          if (reid.usable()) break;
+          e.saturation_v = scan_start(runs, fit_runs, e, &Effects::saturation_v,
+                                      {0.95 * sc.v_max, 0.8 * sc.v_max, 0.6 * sc.v_max,
+                                       0.4 * sc.v_max, 0.25 * sc.v_max},
+                                      ms, opt, alpha);
+          break;
+        case EffectKind::kDeadzone:
+          if (reid.usable()) break;
+          e.deadzone_v = scan_start(runs, fit_runs, e, &Effects::deadzone_v,
+                                    {0.005 * sc.v_max, 0.01 * sc.v_max, 0.02 * sc.v_max,
+                                     0.05 * sc.v_max, 0.1 * sc.v_max, 0.2 * sc.v_max},
+                                    ms, opt, alpha);
+          break;
+        case EffectKind::kNone:
+          break;
+      }
+      // The new effect's parameters searched with the α-model re-identified for each value
+      // (Reidentifier); its output-error fit then starts from the best (after every search).
+      ModelScales start_scales = ms;
+      std::optional<AlphaModel> cand_alpha = alpha;
+      if (kind == EffectKind::kNone && none_alpha) {
+        // `none` is identified the same way as the candidates (its α-model re-identified with the
+        // current effects), so a candidate does not win by the re-identification alone.
+        cand_alpha = none_alpha;
+        start_scales = unit_scales;
+      }
+      if (kind != EffectKind::kNone && reid.usable()) {
+        EffectSearch search;
+        search.runs = &runs;
+        search.fit_runs = &fit_runs;
+        search.reid = &reid;
+        search.opt = &opt;
+        search.base = current;
+        search.unit = unit_scales;
+        if (search_reidentified(kind, e, sc, runs_in.front().controller.kp, search)) {
+          e = search.best;
+          double found_rms = kNaN;
+          cand_alpha = best_variant(reid, e, runs, fit_runs, unit_scales, opt, false, std::nullopt,
+                                    &found_rms);
+          // Not even (1 − significance/2) of `none`'s error on the fit runs with both at unit
+          // factors: it cannot be named, so it is not fitted further (saves its output error).
+          if (std::isfinite(none_unit_rms) &&
+              !(found_rms <= (1.0 - 0.5 * opt.significance) * none_unit_rms)) {
+            rd.candidates.push_back(not_fitted(kind, e, cand_alpha, found_rms,
+                                               "search RMS not below (1 − significance/2) × that "
+                                               "of none: not fitted further"));
+            continue;
+          }
+          // Fitted once every candidate has been searched (see below).
+          deferred.push_back({rd.candidates.size(), e, cand_alpha, found_rms});
+          rd.candidates.push_back(cand);
+          continue;
+        }
+      }
+      // Not searched: `none`, or no re-identification.
+      CandidateScore fitted = fit_candidate(kind, e, start_scales, cand_alpha, false,
+                                            kind == EffectKind::kNone, &pending[rd.candidates.size()]);
+      if (kind == EffectKind::kNone && fitted.ok) none_train_rms = fitted.training_rms;
+      rd.candidates.push_back(fitted);
+    }
+    // The searched candidates are fitted by output error unless their search RMS is more than
+    // kSearchPruneRatio times the best candidate's: the factors fitted with them narrow the
+    // differences, but not by that much (measured: 2.9× and 3.2× behind after the search were
+    // still 1.3× and 1.4× behind after the fit; only candidates within 1.7× overtook).
+    double best_found = kInf;
+    for (const DeferredFit& d : deferred) best_found = std::min(best_found, d.found_rms);
+    for (const DeferredFit& d : deferred) {
+      const EffectKind kind = rd.candidates[d.index].effect;
+      if (d.found_rms > kSearchPruneRatio * best_found) {
+        rd.candidates[d.index] = not_fitted(kind, d.effects, d.alpha, d.found_rms,
+                                            "search RMS more than " + num(kSearchPruneRatio, "%g") +
+                                                "× the best candidate's: not fitted further");
+        continue;
+      }
+      rd.candidates[d.index] =
+          fit_candidate(kind, d.effects, unit_scales, d.alpha, true, false, &pending[d.index]);
+    }
+    // Only the candidates with the two lowest training RMS can be named (the winner must beat
+    // `none` by a margin on data it was not fitted on): those are cross-validated.
+    {
+      std::vector<std::size_t> order;
+      for (std::size_t k = 0; k < rd.candidates.size(); ++k) {
+        if (!pending[k].second.empty()) order.push_back(k);
+      }
+      std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+        return rd.candidates[a].training_rms < rd.candidates[b].training_rms;
+      });
+      if (order.size() > 2) order.resize(2);
+      for (std::size_t k : order) cross_validate(rd.candidates[k], pending[k].first, pending[k].second);
+    }
+    // The winner: lowest score; named only if significantly better than `none` in both folds.
+    const CandidateScore* none = nullptr;
+    const CandidateScore* best = nullptr;
+    for (const auto& c : rd.candidates) {
+      if (!c.ok) continue;
+      if (c.effect == EffectKind::kNone) none = &c;
+      if (!c.cross_validated) continue;  // pruned: cannot be significantly better
+      if (best == nullptr || c.score < best->score) best = &c;
+    }
+    if (none == nullptr) {
+      res.message = "the model without a new effect could not be fitted: " +
+                    (rd.candidates.empty() ? std::string() : rd.candidates.front().message);
+      res.rounds.push_back(rd);
+      break;
+    }
+    // Parsimony: among candidates within 5 % of the best score, the one with fewest parameters
+    // (an offset torque is also a gravity term with θ0 = −π/2 over a small range of θ).
+    // A simpler cross-validated candidate is first refitted at the best one's breakpoints, so
+    // that it is not beaten by a luckier breakpoint set alone.
+    std::vector<CandidateScore> refitted;  // kept alive: `best` may point here
+    refitted.reserve(rd.candidates.size());
+    if (best != nullptr) {
+      const CandidateScore* chosen = best;
+      for (const auto& c : rd.candidates) {
+        if (!c.ok || !c.cross_validated || c.effect == EffectKind::kNone) continue;
+        if (effect_parameters(c.effect).size() >= effect_parameters(best->effect).size()) continue;
+        const CandidateScore* simpler = &c;
+        if (best->alpha && c.alpha && reid.usable() && c.alpha->alpha != best->alpha->alpha) {
+          const std::vector<double> bp(best->alpha->alpha.begin(),
+                                       best->alpha->alpha.begin() +
+                                           static_cast<std::ptrdiff_t>(best->alpha->n_breakpoints));
+          const std::optional<AlphaModel> a = reid.fit_at(c.effects, bp);
+          if (a) {
+            CandidateScore r = fit_candidate(c.effect, c.effects, unit_scales, a, true, true, nullptr);
+            if (r.ok && r.score < c.score) {
+              refitted.push_back(std::move(r));
+              simpler = &refitted.back();
+            }
+          }
+        }
+        if (simpler->score <= 1.05 * best->score &&
+            (chosen == best ||
+             effect_parameters(simpler->effect).size() < effect_parameters(chosen->effect).size())) {
+          chosen = simpler;
+        }
+      }
+      best = chosen;
+      if (!refitted.empty() && best >= refitted.data() && best < refitted.data() + refitted.size()) {
+        // The table shows the simpler candidate as refitted.
+        for (auto& c : rd.candidates) {
+          if (c.effect == best->effect) {
+            c = *best;
+            c.message = "refitted at the breakpoints of the candidate it was preferred to";
+            best = &c;
+            break;
+          }
+        }
+      }
+    }
+    const double keep = 1.0 - opt.significance;
+    auto beats = [&](const CandidateScore& c, const CandidateScore& ref) {
+      return c.score <= keep * ref.score && c.fold_scores[0] <= keep * ref.fold_scores[0] &&
+             c.fold_scores[1] <= keep * ref.fold_scores[1];
+    };
+    bool named = best != nullptr && best->effect != EffectKind::kNone;
+    // A delay shorter than one controller tick is below what the digital loop resolves: its
+    // sample-and-hold and the α filter's timing already differ from the plant's by as much.
+    if (named && best->effect == EffectKind::kTimeDelay && opt.simulation.loop_period_s > 0.0 &&
+        best->effects.delay_s < opt.simulation.loop_period_s) {
+      named = false;
+    }
+    if (named) named = beats(*best, *none);
+    if (named && best->alpha && reid.usable()) {
+      // The winner's α-model has breakpoints of its own. Breakpoint sets that fit the sine points
+      // equally well can predict the other runs quite differently, so the winner must also beat
+      // `none` with the α-model at ITS breakpoints (coefficients with the current effects):
+      // otherwise the gain is the breakpoints', not the effect's.
+      const std::vector<double> bp(best->alpha->alpha.begin(),
+                                   best->alpha->alpha.begin() +
+                                       static_cast<std::ptrdiff_t>(best->alpha->n_breakpoints));
+      const std::optional<AlphaModel> twin_alpha = reid.fit_at(current, bp);
+      if (twin_alpha) {
+        CandidateScore twin =
+            fit_candidate(EffectKind::kNone, current, unit_scales, twin_alpha, false, true, nullptr);
+        if (twin.ok) {
+          named = beats(*best, twin);
+          rd.none_at_winner_breakpoints = twin;
+        }
+      }
+    }
+    // Settled on the whole fit runs: the candidates were fitted on their last fit_window_s, but
+    // the error over all runs also counts the runs' starts (transients from rest).
+    CandidateScore settled = named ? *best : CandidateScore{};
+    if (named && opt.fit_window_s > 0.0) {
+      const std::vector<ParamBlock> blocks = blocks_with(best->effect, best->effects);
+      const OutputErrorProblem pr =
+          make_problem(runs_in, fit_runs, blocks, current, best->scales, opt, best->alpha);
+      OutputErrorOptions oo;
+      oo.threads = opt.threads;
+      oo.max_iterations = 4;
+      const OutputErrorResult r = fit_output_error(pr, oo);
+      if (r.ok) {
+        const Effects e = effects_of(blocks, current, best->scales, r.values);
+        const ModelScales s = scales_of(best->scales, r.values);
+        const double after = pooled_rms(runs_in, run_rms_with(runs_in, all, e, s, opt, best->alpha), all);
+        if (std::isfinite(after) && after < best->error_after) {
+          settled.effects = e;
+          settled.scales = s;
+          settled.error_after = after;
+          settled.message = "settled on the whole fit runs (RMS over all runs " +
+                            num(best->error_after, "%.4g") + " from the windows' fit)";
+        }
+      }
+    }
+    // ... and the whole runs agree: the error over all samples of all runs drops too.
+    if (named) named = settled.error_after <= (1.0 - 0.5 * opt.significance) * rd.error_before;
+    rd.named = named ? best->effect : EffectKind::kNone;
+    if (!named) {  // `none`: the model stays as it was
+      rd.error_after = rd.error_before;
+      res.rounds.push_back(rd);
+      break;
+    }
+    for (auto& c : rd.candidates) {
+      if (c.effect == settled.effect) c = settled;
+    }
+    current = settled.effects;
+    ms = settled.scales;
+    alpha = settled.alpha;
+    rd.error_after = settled.error_after;
+    res.rounds.push_back(rd);
+    named_kinds.push_back(rd.named);
+    res.effects_named.push_back(rd.named);
+  }
+  res.effects = current;
+  res.scales = ms;
+  res.alpha = alpha;
+  const std::vector<std::vector<double>> sims1 =
+      simulate_diagnosed(runs_in, current, ms, opt.simulation, opt.threads, alpha);
+  res.after = locate(runs_in, sims1);
+  res.error_after = res.after.rms;
+  res.ok = !res.rounds.empty() && res.message.empty();
+  res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  return res;
+}
+
+std::vector<DiagnoseRun> diagnose_runs(const Dataset& dataset, const std::vector<RunData>& data,
+                                       const DatasetFit& fit) {
+  std::vector<DiagnoseRun> runs;
+  for (std::size_t p = 0; p < fit.poses.size(); ++p) {
+    const JointModelAtPose m = fit.model_for_pose(p);
+    if (!(m.c_linear > 0.0) || !(m.beta_tilde_linear > 0.0)) continue;
+    for (std::size_t i : fit.poses[p].runs) {
+      const RunData& d = data[i];
+      const std::vector<double>* en = d.column("torque_enable");
+      if (en != nullptr && std::find(en->begin(), en->end(), 0.0) != en->end()) continue;
+      DiagnoseRun r;
+      r.data = &d;
+      r.controller = to_controller(dataset.runs[i].controller);
+      r.model = m;
+      r.name = dataset.runs[i].file;
+      r.kind = dataset.runs[i].kind;
+      r.freq_hz = dataset.runs[i].freq_hz;
+      runs.push_back(r);
+    }
+  }
+  return runs;
+}
+
+DiagnoseResult diagnose_dataset(const Dataset& dataset, const std::vector<RunData>& data,
+                                DiagnoseOptions options, const FitPipelineOptions& fit_options,
+                                DatasetFit* fit_out) {
+  FitPipelineOptions fo = fit_options;
+  fo.validate = false;
+  if (fo.threads == 0) fo.threads = options.threads;
+  DatasetFit fit = fit_dataset(dataset, data, fo);
+  options.simulation = fit.simulation;
+  const std::vector<DiagnoseRun> runs = diagnose_runs(dataset, data, fit);
+  DiagnoseResult res;
+  if (runs.empty()) {
+    res.message = "no run has a fitted model to diagnose";
+  } else {
+    res = diagnose(runs, options);
+  }
+  if (fit_out != nullptr) *fit_out = std::move(fit);
+  return res;
+}
+
+}  // namespace alphainv

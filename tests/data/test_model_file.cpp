@@ -1,0 +1,206 @@
+#include "alphainv/data/model_file.hpp"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+#include "alphainv/error.hpp"
+
+namespace alphainv {
+namespace {
+
+ModelFile sample_model() {
+  ModelFile m;
+  m.tool_version = "alphainv test";
+  m.dataset_hash = "0123456789abcdef";
+  m.controller.kp = 2.0;
+  m.has_inertia_model = true;
+  m.linear = paper_linear_model();
+  m.linear_se = {1e-4, 2e-4, 3e-4, 4e-4, 0.01, std::nan("")};
+  m.poses.push_back({60.08, 87.0, 6.242, 229.04});
+  m.poses.push_back({std::nullopt, std::nullopt, 5.0, 200.0});
+  m.has_alpha_model = true;
+  m.alpha = paper_alpha_model();
+  m.c_n1_se[0] = 0.5;
+  m.notes = {"a note"};
+  return m;
+}
+
+TEST(ModelFile, RoundTripsEveryParameter) {
+  const ModelFile m = sample_model();
+  const ModelFile back = parse_model_file(format_model_file(m), "model.json");
+  EXPECT_EQ(back.dataset_hash, m.dataset_hash);
+  EXPECT_EQ(back.controller.kp, 2.0);
+  EXPECT_FALSE(back.controller.has_limit());
+  ASSERT_TRUE(back.has_inertia_model);
+  EXPECT_EQ(back.linear.inertia.i3, m.linear.inertia.i3);
+  EXPECT_EQ(back.linear.c0_bar, m.linear.c0_bar);
+  EXPECT_EQ(back.linear_se[4], 0.01);
+  EXPECT_TRUE(std::isnan(back.linear_se[5]));
+  ASSERT_EQ(back.poses.size(), 2u);
+  EXPECT_FALSE(back.poses[1].gamma1_deg.has_value());
+  ASSERT_TRUE(back.has_alpha_model);
+  EXPECT_EQ(back.alpha.n_breakpoints, 4u);
+  for (std::size_t k = 0; k < 4; ++k) EXPECT_EQ(back.alpha.c_n1[k], m.alpha.c_n1[k]);
+  EXPECT_EQ(back.alpha.beta_n1[1], m.alpha.beta_n1[1]);
+  EXPECT_EQ(back.notes.at(0), "a note");
+}
+
+TEST(ModelFile, WritesAtomicallyAndReads) {
+  const auto dir = std::filesystem::temp_directory_path() / "alphainv_test_model_file";
+  std::filesystem::create_directories(dir);
+  write_model_file(dir / "model.json", sample_model());
+  EXPECT_FALSE(std::filesystem::exists(dir / "model.json.tmp"));
+  EXPECT_EQ(read_model_file(dir / "model.json").alpha.c_n1[3], 61.733);
+  std::filesystem::remove_all(dir);
+}
+
+void expect_error(const std::string& text, const std::string& needle) {
+  try {
+    parse_model_file(text, "bad.json");
+    ADD_FAILURE() << "no error for " << text;
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.json"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+  }
+}
+
+TEST(ModelFile, BadInputNamesFileAndKey) {
+  expect_error("{", "malformed JSON");
+  expect_error("[]", "JSON object");
+  expect_error(R"({"schema": "other/9"})", "schema");
+  expect_error(R"({"schema": "alphainv-model/1"})", "controller");
+  const std::string ctl = R"("controller": {"kp": 2, "ki": 0, "kd": 0, "v_limit": null})";
+  expect_error(R"({"schema": "alphainv-model/1", "controller": {"kp": "x", "ki": 0, "kd": 0, "v_limit": null}})",
+               "controller.kp");
+  expect_error(R"({"schema": "alphainv-model/1", )" + ctl +
+                   R"(, "alpha_model": {"breakpoints": [0, 1], "C_n1": [1], "beta_alpha": [0, 1], "beta_n1": [1, 1]}})",
+               "alpha_model.C_n1");
+  expect_error(R"({"schema": "alphainv-model/1", )" + ctl +
+                   R"(, "alpha_model": {"breakpoints": [1, 0], "C_n1": [1, 1], "beta_alpha": [0, 1], "beta_n1": [1, 1]}})",
+               "alpha_model");
+  EXPECT_THROW(read_model_file("/nonexistent/model.json"), Error);
+}
+
+ModelFile model_with_effects() {
+  ModelFile m = sample_model();
+  m.effects.coulomb_v = 0.05;
+  m.effects.coulomb_smoothing_rad_s = 0.02;
+  m.effects.offset_v = -0.03;
+  m.effects.gravity_v = 0.2;
+  m.effects.gravity_theta0_rad = 0.4;
+  m.effects.cogging_v = 0.01;
+  m.effects.cogging_period_rad = 0.1;
+  m.effects.cogging_phase_rad = 1.5;
+  m.effects.delay_s = 0.004;
+  m.effects.saturation_v = 1.2;
+  m.effects.deadzone_v = 0.02;
+  m.loop_period_s = 1e-3;
+  return m;
+}
+
+TEST(ModelFile, RoundTripsEffectsAndLoopPeriod) {
+  const ModelFile m = model_with_effects();
+  const std::string text = format_model_file(m);
+  const ModelFile back = parse_model_file(text, "model.json");
+  EXPECT_EQ(back.effects.coulomb_v, 0.05);
+  EXPECT_EQ(back.effects.coulomb_smoothing_rad_s, 0.02);
+  EXPECT_EQ(back.effects.offset_v, -0.03);
+  EXPECT_EQ(back.effects.gravity_v, 0.2);
+  EXPECT_EQ(back.effects.gravity_theta0_rad, 0.4);
+  EXPECT_EQ(back.effects.cogging_v, 0.01);
+  EXPECT_EQ(back.effects.cogging_period_rad, 0.1);
+  EXPECT_EQ(back.effects.cogging_phase_rad, 1.5);
+  EXPECT_EQ(back.effects.delay_s, 0.004);
+  EXPECT_EQ(back.effects.saturation_v, 1.2);
+  EXPECT_EQ(back.effects.deadzone_v, 0.02);
+  EXPECT_EQ(back.loop_period_s, 1e-3);
+  // The list holds the active effects in catalogue order, by catalogue name.
+  const std::size_t c = text.find("\"coulomb_friction\""), o = text.find("\"offset_torque\""),
+                    d = text.find("\"deadzone\"");
+  ASSERT_NE(c, std::string::npos);
+  ASSERT_NE(o, std::string::npos);
+  ASSERT_NE(d, std::string::npos);
+  EXPECT_LT(c, o);
+  EXPECT_LT(o, d);
+  EXPECT_NE(text.find("\"loop_period_s\": 0.001"), std::string::npos) << text;
+}
+
+TEST(ModelFile, NoEffectsWritesAnEmptyListAndReadsBackAllOff) {
+  ModelFile m = sample_model();
+  m.effects.offset_v = 0.1;  // one effect only: the others stay at their (off) defaults
+  const ModelFile back = parse_model_file(format_model_file(m), "model.json");
+  EXPECT_EQ(back.effects.offset_v, 0.1);
+  EXPECT_EQ(active_effects(back.effects), std::vector<EffectKind>{EffectKind::kOffsetTorque});
+  EXPECT_TRUE(std::isinf(back.effects.saturation_v));
+  const std::string none = format_model_file(sample_model());
+  EXPECT_NE(none.find("\"effects\": []"), std::string::npos) << none;
+  EXPECT_TRUE(active_effects(parse_model_file(none, "model.json").effects).empty());
+}
+
+TEST(ModelFile, OldFileWithoutEffectsOrSimulationReads) {
+  // A model.json as the first omni_fit wrote it: no "effects", no "simulation".
+  const std::string old = R"({"schema": "alphainv-model/1", "tool_version": "alphainv 0.1.0",
+    "controller": {"kp": 2, "ki": 0, "kd": 0, "derivative_on": "error", "v_limit": null},
+    "inertia_model": null, "poses": [{"gamma1_deg": 65, "gamma2_deg": 90, "C_linear": 6.2,
+    "beta_tilde_linear": 229}], "alpha_model": null, "notes": []})";
+  const ModelFile m = parse_model_file(old, "old.json");
+  EXPECT_TRUE(active_effects(m.effects).empty());
+  EXPECT_EQ(m.effects.coulomb_smoothing_rad_s, Effects{}.coulomb_smoothing_rad_s);
+  EXPECT_EQ(m.loop_period_s, 0.0);
+  EXPECT_EQ(m.poses.at(0).c_linear, 6.2);
+}
+
+TEST(ModelFile, BadEffectsNameFileAndKeyPath) {
+  const std::string head = R"({"schema": "alphainv-model/1", "controller": {"kp": 2, "ki": 0, "kd": 0, "v_limit": null}, )";
+  auto with = [&](const std::string& tail) { return head + tail + "}"; };
+  const std::string off = R"({"effect": "offset_torque", "parameters": {"offset_v": 0.1}})";
+  expect_error(with(R"("effects": {"offset_v": 1})"), "'effects': expected an array");
+  expect_error(with(R"("effects": [)" + off + R"(, {"effect": "friction", "parameters": {}}])"),
+               "'effects[1].effect': unknown effect \"friction\"");
+  expect_error(with(R"("effects": [)" + off + R"(, {"effect": "time_delay", "parameters": {"delay_s": -0.01}}])"),
+               "'effects[1].parameters.delay_s'");
+  expect_error(with(R"("effects": [{"effect": "time_delay", "parameters": {"delay_s": 2}}])"),
+               "'effects[0].parameters.delay_s'");
+  expect_error(with(R"("effects": [{"effect": "coulomb_friction", "parameters": {"coulomb_v": -0.1}}])"),
+               "'effects[0].parameters.coulomb_v': expected a finite number >= 0");
+  expect_error(with(R"("effects": [{"effect": "coulomb_friction", "parameters": {"coulomb_v": 0.1, "coulomb_smoothing_rad_s": 0}}])"),
+               "'effects[0].parameters.coulomb_smoothing_rad_s'");
+  // NaN has no JSON spelling: null and a string must be refused (an overflowing literal is
+  // malformed JSON: no key to name, but still an alphainv::Error naming the file).
+  expect_error(with(R"("effects": [{"effect": "gravity", "parameters": {"gravity_v": null, "gravity_theta0_rad": 0}}])"),
+               "'effects[0].parameters.gravity_v': expected a number");
+  expect_error(with(R"("effects": [{"effect": "gravity", "parameters": {"gravity_v": "NaN", "gravity_theta0_rad": 0}}])"),
+               "'effects[0].parameters.gravity_v': expected a number");
+  expect_error(with(R"("effects": [{"effect": "gravity", "parameters": {"gravity_v": 1e999, "gravity_theta0_rad": 0}}])"),
+               "malformed JSON");
+  expect_error(with(R"("effects": [{"effect": "gravity", "parameters": {"gravity_v": 0.2}}])"),
+               "'effects[0].parameters.gravity_theta0_rad': missing key");
+  expect_error(with(R"("effects": [{"effect": "cogging", "parameters": {"cogging_v": 0.1, "cogging_period_rad": 0, "cogging_phase_rad": 0}}])"),
+               "'effects[0].parameters.cogging_period_rad'");
+  expect_error(with(R"("effects": [{"effect": "saturation", "parameters": {"saturation_v": -1}}])"),
+               "'effects[0].parameters.saturation_v'");
+  expect_error(with(R"("effects": [{"effect": "deadzone", "parameters": {"deadzone_v": -0.1}}])"),
+               "'effects[0].parameters.deadzone_v'");
+  expect_error(with(R"("effects": [{"effect": "offset_torque", "parameters": {"offset_v": 0.1, "delay_s": 0}}])"),
+               "'effects[0].parameters.delay_s': unknown parameter of offset_torque");
+  expect_error(with(R"("effects": [{"effect": "offset_torque"}])"), "'effects[0].parameters'");
+  expect_error(with(R"("effects": [{"parameters": {}}])"), "'effects[0].effect'");
+  expect_error(with(R"("effects": [)" + off + "," + off + "]"), "'effects[1].effect': effect listed twice");
+  expect_error(with(R"("simulation": {"loop_period_s": -0.001})"), "'simulation.loop_period_s'");
+  expect_error(with(R"("simulation": {"loop_period_s": "1ms"})"), "'simulation.loop_period_s'");
+}
+
+TEST(ModelFile, RefusesToWriteWhatItWouldNotRead) {
+  ModelFile m = sample_model();
+  m.effects.delay_s = std::nan("");
+  EXPECT_THROW(format_model_file(m), Error);
+  m = sample_model();
+  m.loop_period_s = -1.0;
+  EXPECT_THROW(format_model_file(m), Error);
+}
+
+}  // namespace
+}  // namespace alphainv

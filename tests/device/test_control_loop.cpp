@@ -1,0 +1,300 @@
+// The 1 kHz tick against the virtual Omni as ground truth: α, C, β̃ equal the plant's own, the
+// one-step prediction matches the plant, the clamp and slew limit hold, every fault zeroes and
+// disables the motor in the tick that detects it, and the tick allocates nothing.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+#include <vector>
+
+#include "support/counting_allocator.hpp"
+#include "alphainv/device/sim_transport.hpp"
+#include "alphainv/error.hpp"
+#include "alphainv/device/control_loop.hpp"
+#include "alphainv/rt/latency_histogram.hpp"
+#include "alphainv/rt/spsc_ring.hpp"
+
+using namespace alphainv;
+using namespace alphainv::device;
+using namespace alphainv::rt;
+
+namespace {
+
+/// 1e8 counts/rad: quantisation far below what the assertions resolve.
+ReportScaling fine_scaling() {
+  ReportScaling s;
+  s.counts_per_rad = {1e8, 1e8, 1e8};
+  return s;
+}
+
+struct Trace {
+  std::vector<TickRecord> records;
+  std::vector<OutputReport> written;
+};
+
+/// Runs `ticks` ticks of `loop` on `t`, starting `wave` at tick 1; `missed_from`: ticks from which
+/// every deadline counts as missed.
+Trace run(ControlLoop& loop, SimTransport& t, const Waveform& wave, int ticks,
+          int missed_from = 1 << 30) {
+  Trace trace;
+  const double T = loop.config().period_s;
+  for (int k = 0; k < ticks; ++k) {
+    const ReadResult in = t.read_latest();
+    OutputReport out;
+    trace.records.push_back(loop.tick(k * T, in, k >= missed_from, out));
+    if (t.write(out) != IoStatus::kOk) loop.latch(Fault::kDisconnected);
+    trace.written.push_back(out);
+    if (k == 0) loop.set_reference(wave, T, true);
+  }
+  return trace;
+}
+
+Waveform sine(double amplitude, double f) { return Waveform{WaveKind::kSine, amplitude, f, 0.0}; }
+
+}  // namespace
+
+TEST(Waveform, Values) {
+  const Waveform s{WaveKind::kSine, 0.1, 2.0, 0.5};
+  EXPECT_NEAR(s.at(0.125), 0.6, 1e-15);  // sin(π/2)
+  const Waveform q{WaveKind::kSquare, 0.1, 0.25, 0.0};
+  EXPECT_EQ(q.at(0.0), 0.1);
+  EXPECT_EQ(q.at(1.99), 0.1);
+  EXPECT_EQ(q.at(2.0), -0.1);
+  const Waveform st{WaveKind::kStep, 0.07, 0.0, 0.01};
+  EXPECT_EQ(st.at(-1e-9), 0.01);
+  EXPECT_EQ(st.at(0.0), 0.08);
+  EXPECT_EQ((Waveform{WaveKind::kHold, 1.0, 1.0, 0.2}.at(3.0)), 0.2);
+}
+
+TEST(ControlLoopConfig, ValidateNamesTheField) {
+  ControlLoopConfig c;
+  c.safety.max_command_v = 6.0;  // beyond the ±5 V DAC
+  try {
+    ControlLoop loop(c);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.field(), "max_command_v");
+  }
+  c = ControlLoopConfig{};
+  c.kp = 11.0;
+  EXPECT_THROW(ControlLoop{c}, Error);
+  c = ControlLoopConfig{};
+  c.model.c_n1[1] = -1.0;
+  try {
+    ControlLoop loop(c);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.field(), "model");
+  }
+  ControlLoop ok{ControlLoopConfig{}};
+  EXPECT_FALSE(ok.set_kp(10.5));
+  EXPECT_FALSE(ok.set_kp(std::nan("")));
+  EXPECT_TRUE(ok.set_kp(3.0));
+  EXPECT_EQ(ok.kp(), 3.0);
+}
+
+TEST(ControlLoop, ModelQuantitiesEqualThePlantsAndThePredictionMatchesIt) {
+  ControlLoopConfig c;
+  c.scaling = fine_scaling();
+  ControlLoop loop(c);
+  SimTransport t(VirtualOmniParams{}, c.scaling);
+  const VirtualOmni& plant = t.device().plant();
+  const double T = c.period_s;
+  double max_pred_error = 0.0;
+  for (int k = 0; k < 2000; ++k) {
+    const ReadResult in = t.read_latest();
+    OutputReport out;
+    const TickRecord rec = loop.tick(k * T, in, false, out);
+    ASSERT_EQ(rec.fault, Fault::kNone);
+    ASSERT_EQ(t.write(out), IoStatus::kOk);
+    if (k == 0) loop.set_reference(sine(0.07, 3.0), T, true);
+    if (k == 0) continue;
+    // The plant's α filter saw exactly the command we sent: same α̂, C and β̃ (eqs. (33), (38)-(42)).
+    ASSERT_EQ(rec.command_v, plant.command_effective());
+    EXPECT_NEAR(rec.alpha, plant.alpha(), 1e-12 * (1.0 + std::abs(plant.alpha())));
+    EXPECT_NEAR(rec.damping, plant.damping(), 1e-7 * plant.damping());  // I from measured γ
+    EXPECT_NEAR(rec.beta_tilde, plant.beta_tilde(), 1e-7 * plant.beta_tilde());
+    EXPECT_NEAR(rec.r_rad, 0.07 * std::sin(2 * kPi * 3.0 * (k - 1) * T), 1e-12);
+    if (k > 3)
+      max_pred_error = std::max(max_pred_error, std::abs(rec.theta_pred_rad - rec.theta_rad));
+  }
+  EXPECT_GT(std::abs(plant.theta()), 0.01);  // it moved
+  EXPECT_LT(max_pred_error, 1e-7);
+
+  // The same check fails for a wrong model (damping doubled): the test can tell.
+  ControlLoopConfig wrong = c;
+  for (auto& x : wrong.model.c_n1) x *= 0.5;
+  ControlLoop wrong_loop(wrong);
+  SimTransport t2(VirtualOmniParams{}, c.scaling);
+  const Trace tr = run(wrong_loop, t2, sine(0.07, 3.0), 2000);
+  double wrong_error = 0.0;
+  for (std::size_t k = 4; k < tr.records.size(); ++k) {
+    wrong_error =
+        std::max(wrong_error, std::abs(tr.records[k].theta_pred_rad - tr.records[k].theta_rad));
+  }
+  EXPECT_GT(wrong_error, 1e-5);
+}
+
+TEST(ControlLoop, ThePredictionHonoursTheModelsEffects) {
+  // A plant with an offset torque, a 2-tick delay and a deadzone (as omni_fit diagnose would add
+  // them to model.json): the loop whose model carries them predicts θ one tick ahead as closely as
+  // without effects (the torque term uses an estimated θ̇, so not to rounding); without them it
+  // misses.
+  VirtualOmniParams p;
+  p.effects.offset_v = 0.02;
+  p.effects.delay_s = 0.002;
+  p.effects.deadzone_v = 0.005;
+  auto max_error = [&](const Effects& model_effects) {
+    ControlLoopConfig c;
+    c.scaling = fine_scaling();
+    c.effects = model_effects;
+    ControlLoop loop(c);
+    SimTransport t(p, c.scaling);
+    const Trace tr = run(loop, t, sine(0.07, 3.0), 2000);
+    double e = 0.0;
+    for (std::size_t k = 10; k < tr.records.size(); ++k)
+      e = std::max(e, std::abs(tr.records[k].theta_pred_rad - tr.records[k].theta_rad));
+    return e;
+  };
+  const double with = max_error(p.effects);
+  const double without = max_error(Effects{});
+  EXPECT_LT(with, 1e-6);
+  EXPECT_GT(without, 10.0 * with);
+  // A bad effect in the configuration is refused, naming the field.
+  ControlLoopConfig bad;
+  bad.effects.coulomb_v = -1.0;
+  try {
+    bad.validate();
+    FAIL() << "no throw";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.field(), "effects.coulomb_v");
+  }
+}
+
+TEST(ControlLoop, ClampAndSlewLimitHold) {
+  ControlLoopConfig c;
+  c.kp = 10.0;
+  c.safety.max_command_v = 0.3;
+  c.safety.max_slew_v_per_s = 50.0;
+  ControlLoop loop(c);
+  SimTransport t(VirtualOmniParams{}, c.scaling);
+  const Trace tr = run(loop, t, Waveform{WaveKind::kSquare, 0.2, 2.0, 0.0}, 1500);
+  double prev = 0.0, max_abs = 0.0, max_step = 0.0;
+  for (const TickRecord& r : tr.records) {
+    ASSERT_EQ(r.fault, Fault::kNone);
+    max_abs = std::max(max_abs, std::abs(r.command_v));
+    max_step = std::max(max_step, std::abs(r.command_v - prev));
+    prev = r.command_v;
+  }
+  const double dac_step = 1.0 / c.scaling.dac_counts_per_v;
+  EXPECT_LE(max_abs, 0.3 + dac_step);
+  EXPECT_GT(max_abs, 0.29);  // the clamp was reached
+  EXPECT_LE(max_step, 50.0 * 1e-3 + dac_step);
+  EXPECT_GT(max_step, 0.049);  // the slew limit was reached
+}
+
+namespace {
+
+struct FaultCase {
+  const char* sim_fault;  // "" for none
+  Fault expected;
+  int max_delay_ticks;  // from the device's fault onset to detection
+};
+
+/// Index of the first record with a fault, or −1.
+int first_fault(const Trace& tr) {
+  for (std::size_t k = 0; k < tr.records.size(); ++k) {
+    if (tr.records[k].fault != Fault::kNone) return static_cast<int>(k);
+  }
+  return -1;
+}
+
+/// After the fault, every report written is 0 and disabled, starting in the detecting tick.
+void expect_safe_after(const Trace& tr, int kf) {
+  for (std::size_t k = static_cast<std::size_t>(kf); k < tr.written.size(); ++k) {
+    EXPECT_EQ(tr.written[k].dac_counts, 0) << k;
+    EXPECT_FALSE(tr.written[k].enable) << k;
+  }
+  EXPECT_TRUE(tr.written[static_cast<std::size_t>(kf) - 1].enable);
+}
+
+}  // namespace
+
+TEST(ControlLoop, DeviceFaultsZeroAndDisableInTheDetectingTick) {
+  const FaultCase cases[] = {
+      {"disconnect@0.3", Fault::kDisconnected, 1},  {"stall@0.3", Fault::kReadStall, 20 + 1},
+      {"corrupt@0.3", Fault::kCorruptReport, 1},    {"sequence@0.3", Fault::kOutOfSequence, 1},
+      {"encoder-jump@0.3", Fault::kEncoderJump, 1},
+  };
+  for (const FaultCase& fc : cases) {
+    SCOPED_TRACE(fc.sim_fault);
+    ControlLoop loop{ControlLoopConfig{}};
+    SimTransport t(VirtualOmniParams{}, ReportScaling{}, parse_sim_fault(fc.sim_fault));
+    const Trace tr = run(loop, t, sine(0.07, 3.0), 600);
+    const int kf = first_fault(tr);
+    ASSERT_GT(kf, 0);
+    EXPECT_EQ(tr.records[static_cast<std::size_t>(kf)].fault, fc.expected);
+    const long onset = t.device().fault_tick();
+    ASSERT_EQ(onset, 300);
+    EXPECT_GE(kf, onset);
+    EXPECT_LE(kf - onset, fc.max_delay_ticks);
+    expect_safe_after(tr, kf);
+    // What reached the device: nothing enabled after the detecting tick.
+    for (const WrittenCommand& w : t.device().written()) {
+      if (w.device_tick >= kf && w.delivered) {
+        EXPECT_FALSE(w.report.enable) << w.device_tick;
+      }
+    }
+  }
+}
+
+TEST(ControlLoop, AngleLimitAndDeadlineMisses) {
+  {
+    ControlLoopConfig c;
+    c.safety.theta_limit_rad = 0.05;
+    ControlLoop loop(c);
+    SimTransport t(VirtualOmniParams{}, c.scaling);
+    const Trace tr = run(loop, t, Waveform{WaveKind::kStep, 0.07, 0.0, 0.0}, 500);
+    const int kf = first_fault(tr);
+    ASSERT_GT(kf, 0);
+    EXPECT_EQ(tr.records[static_cast<std::size_t>(kf)].fault, Fault::kAngleLimit);
+    EXPECT_GT(std::abs(tr.records[static_cast<std::size_t>(kf)].theta_rad), 0.05);
+    EXPECT_LE(std::abs(tr.records[static_cast<std::size_t>(kf) - 1].theta_rad), 0.05);
+    expect_safe_after(tr, kf);
+  }
+  {
+    ControlLoopConfig c;
+    c.safety.max_missed_deadlines = 5;
+    ControlLoop loop(c);
+    SimTransport t(VirtualOmniParams{}, c.scaling);
+    const Trace tr = run(loop, t, sine(0.07, 3.0), 400, 200);
+    EXPECT_EQ(first_fault(tr), 204);  // the 5th miss in a row
+    EXPECT_EQ(tr.records[204].fault, Fault::kDeadlineMisses);
+    expect_safe_after(tr, 204);
+  }
+}
+
+TEST(ControlLoop, TickAllocatesNothing) {
+  ControlLoop loop{ControlLoopConfig{}};
+  SimTransport t(VirtualOmniParams{}, ReportScaling{});
+  SpscRing<TickRecord> ring(4096);
+  auto hist = std::make_unique<LatencyHistogram>();
+  TickRecord sink;
+  const long before = alphainv::test::allocation_count();
+  for (int k = 0; k < 3000; ++k) {
+    const ReadResult in = t.read_latest();
+    OutputReport out;
+    const TickRecord rec = loop.tick(k * 1e-3, in, false, out);
+    if (t.write(out) != IoStatus::kOk) loop.latch(Fault::kDisconnected);
+    if (!ring.push(rec)) (void)ring.pop(sink);
+    hist->add(rec.read_s);
+    if (k == 0) loop.set_reference(sine(0.07, 3.0), 1e-3, true);
+    if (k == 1500) {
+      (void)loop.set_kp(2.5);
+      loop.hold();
+    }
+  }
+  (void)loop.safe_report();
+  EXPECT_EQ(alphainv::test::allocation_count() - before, 0);
+  EXPECT_EQ(loop.fault(), Fault::kNone);
+}

@@ -1,0 +1,144 @@
+#include "alphainv/diagnose/diagnose.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "alphainv/simulate/experiment_plan.hpp"
+
+namespace alphainv {
+namespace {
+
+TEST(Diagnose, DiagnosedModelAppliesTheFactorsAndEffects) {
+  JointModelAtPose base = model_at_pose(paper_linear_model(), paper_alpha_model(),
+                                        deg_to_rad(60.08), deg_to_rad(87.0));
+  Effects e;
+  e.offset_v = 0.01;
+  ModelScales s;
+  s.c = {2.0, 1.0, 0.5, 1.0};
+  s.beta = {1.25, 0.8};
+  const JointModelAtPose m = diagnosed_model(base, e, s);
+  // C_n = 1/(C_n1·I) scaled by c[n] (eq. (40)); β̃ ends by beta[j] (eq. (42)).
+  for (std::size_t n = 0; n < 4; ++n) {
+    EXPECT_NEAR(m.alpha.damping(m.alpha.alpha[n], m.inertia),
+                s.c[n] * base.alpha.damping(base.alpha.alpha[n], base.inertia), 1e-12);
+  }
+  EXPECT_NEAR(m.alpha.beta_tilde(0.0, m.inertia), 1.25 * base.alpha.beta_tilde(0.0, base.inertia), 1e-9);
+  EXPECT_NEAR(m.c_linear, 2.0 * base.c_linear, 1e-12);
+  EXPECT_EQ(m.effects.offset_v, 0.01);
+  // Unit factors give the model back.
+  const JointModelAtPose same = diagnosed_model(base, Effects{}, ModelScales{});
+  EXPECT_EQ(same.alpha.c_n1, base.alpha.c_n1);
+}
+
+TEST(Diagnose, BadInputGivesAMessage) {
+  EXPECT_FALSE(diagnose({}).ok);
+  RunData d;
+  d.t = {0.0, 0.001};
+  d.r = d.theta = d.v = {0.0, 0.0};
+  DiagnoseRun r;
+  r.data = &d;
+  r.name = "short.csv";
+  const DiagnoseResult res = diagnose({r});
+  EXPECT_FALSE(res.ok);
+  EXPECT_NE(res.message.find("short.csv"), std::string::npos) << res.message;
+}
+
+/// The 10-run dataset of `omni_fit sweep`: the sine sweep and a square wave at one pose, with one
+/// hidden effect (or none).
+GeneratedDataset one_pose_dataset(const Effects& hidden, std::uint64_t seed) {
+  ExperimentPlanOptions plan = paper_plan_options(seed);
+  plan.plant.effects = hidden;
+  const auto poses = paper_sine_poses();
+  plan.sine_poses = {poses[seed % poses.size()]};
+  plan.square_poses = plan.sine_poses;
+  return generate_dataset(make_experiment_plan(plan));
+}
+
+/// diagnose_dataset() on one_pose_dataset(hidden, seed): it must name `expected` alone and cut
+/// the gap by 30 % or more.
+DiagnoseResult expect_named(const Effects& hidden, std::uint64_t seed, EffectKind expected) {
+  const GeneratedDataset g = one_pose_dataset(hidden, seed);
+  const DiagnoseResult r = diagnose_dataset(g.index, g.runs, DiagnoseOptions{});
+  EXPECT_TRUE(r.ok) << r.message;
+  EXPECT_EQ(r.effects_named.size(), 1u);
+  EXPECT_EQ(r.effects_named.empty() ? EffectKind::kNone : r.effects_named[0], expected);
+  EXPECT_LT(r.error_after, 0.7 * r.error_before);  // the gap shrinks by 30 % or more
+  return r;
+}
+
+TEST(DiagnoseSweep, NamesADeadzoneAndCutsTheGap) {
+  Effects hidden;
+  hidden.deadzone_v = 0.01;
+  const DiagnoseResult r = expect_named(hidden, 3, EffectKind::kDeadzone);
+  EXPECT_NEAR(r.effects.deadzone_v, 0.01, 0.3 * 0.01);
+  ASSERT_FALSE(r.rounds.empty());
+  EXPECT_EQ(r.rounds.front().candidates.size(), kAllEffectKinds.size());
+}
+
+TEST(DiagnoseSweep, NamesAGravitySpringTheFittedModelHadAbsorbed) {
+  // The smaller magnitude of the sweep, at another pose and seed: the α-model fitted from the
+  // sine runs absorbs the spring (C and β̃ shift with ω), so only the search with the α-model
+  // re-identified finds it.
+  Effects hidden;
+  hidden.gravity_v = 0.15;
+  const DiagnoseResult r = expect_named(hidden, 5, EffectKind::kGravity);
+  // The spring's stiffness g·cos θ0 (θ0 is 0 in the plant; over ±0.07 rad an offset g·sin θ0
+  // is what θ0 adds).
+  EXPECT_NEAR(r.effects.gravity_v * std::cos(r.effects.gravity_theta0_rad), 0.15, 0.15 * 0.15);
+  EXPECT_TRUE(r.alpha.has_value());  // the model was re-identified with the spring
+}
+
+TEST(DiagnoseSweep, NamesAGravityTermWithAPhaseNotAnOffset) {
+  // θ0 ≠ 0: over ±0.07 rad, −g·sin(θ + θ0) is a spring g·cos θ0 and an offset g·sin θ0 (0.074 V
+  // here). Searched as (g, θ0), the curved valley was missed and the offset alone named (gap cut
+  // 39 %); searched as (spring, offset), both are found.
+  Effects hidden;
+  hidden.gravity_v = 0.3367;
+  hidden.gravity_theta0_rad = 0.2213;
+  const DiagnoseResult r = expect_named(hidden, 12, EffectKind::kGravity);
+  EXPECT_LT(r.error_after, 0.1 * r.error_before);
+  EXPECT_NEAR(r.effects.gravity_v, 0.3367, 0.05 * 0.3367);
+  EXPECT_NEAR(r.effects.gravity_theta0_rad, 0.2213, 0.03);
+}
+
+TEST(DiagnoseSweep, NamesATimeDelay) {
+  Effects hidden;
+  hidden.delay_s = 0.002;
+  const DiagnoseResult r = expect_named(hidden, 7, EffectKind::kTimeDelay);
+  // The delay trades off against the coefficient factors (both shift the phase): within 50 %.
+  EXPECT_NEAR(r.effects.delay_s, 0.002, 0.5 * 0.002);
+}
+
+TEST(DiagnoseSweep, NamesCoggingAndSettlesItOnTheWholeRuns) {
+  // Fitted on the runs' last 2.5 s only, the model with the cogging cut the gap over all runs by
+  // 27 % here (the runs' starts were not fitted); settled on the whole fit runs, by about 60 %.
+  Effects hidden;
+  hidden.cogging_v = 0.02;
+  hidden.cogging_period_rad = 0.02;
+  hidden.cogging_phase_rad = 0.5;
+  const DiagnoseResult r = expect_named(hidden, 6, EffectKind::kCogging);
+  EXPECT_LT(r.error_after, 0.5 * r.error_before);
+  EXPECT_NEAR(r.effects.cogging_v, 0.02, 0.2 * 0.02);
+  EXPECT_NEAR(r.effects.cogging_period_rad, 0.02, 0.03 * 0.02);
+  ASSERT_FALSE(r.rounds.empty());
+  const auto& cands = r.rounds.front().candidates;
+  const auto it = std::find_if(cands.begin(), cands.end(),
+                               [](const CandidateScore& c) { return c.effect == EffectKind::kCogging; });
+  ASSERT_NE(it, cands.end());
+  EXPECT_NE(it->message.find("settled on the whole fit runs"), std::string::npos) << it->message;
+}
+
+TEST(DiagnoseSweep, SaysNoneOnEffectFreeData) {
+  const GeneratedDataset g = one_pose_dataset(Effects{}, 3);
+  const DiagnoseResult r = diagnose_dataset(g.index, g.runs, DiagnoseOptions{});
+  ASSERT_TRUE(r.ok) << r.message;
+  EXPECT_TRUE(r.effects_named.empty());
+  EXPECT_EQ(r.rounds.front().named, EffectKind::kNone);
+  EXPECT_DOUBLE_EQ(r.error_after, r.error_before);  // the model is left as it was
+  EXPECT_FALSE(r.before.findings.empty());
+}
+
+}  // namespace
+}  // namespace alphainv
