@@ -189,7 +189,7 @@ CLI::App* add_diagnose_subcommand(CLI::App& app, DiagnoseCommandOptions& o) {
   c->add_option("--fit-runs", o.max_fit_runs, "runs used to fit and score the candidates")
       ->capture_default_str()->check(CLI::Range(2, 1000));
   c->footer(
-      "Effects: coulomb_friction, offset_torque, gravity, cogging, time_delay, saturation, deadzone.\n"
+      "Effects: " + effect_names_text() + ".\n"
       "Examples:\n  omni_fit diagnose data/omni_yaw_sim -o out/diag --json\n"
       "  omni_fit diagnose run_dir --model out/fit/model.json --max-effects 2 -o out/diag\n"
       "Exit codes: 0 ok (also when it names none), 1 usage, 2 bad input (names the file), "

@@ -187,58 +187,12 @@ void read_known_effects(const FitCommandOptions& opt, Effects& effects, std::str
     source = "from `" + opt.effects_from + "`";
   }
   for (const std::string& spec : opt.effect_specs) {
-    apply_effect_option(spec, effects);
+    apply_effect_spec(spec, effects);
     source += std::string(source.empty() ? "" : ", ") + "`--effect " + spec + "`";
   }
 }
 
 }  // namespace
-
-void apply_effect_option(const std::string& spec, Effects& effects) {
-  const std::string option = "--effect " + spec;
-  const std::size_t colon = spec.find(':');
-  if (colon == std::string::npos) {
-    throw Error("expected NAME:PARAM=VALUE[,PARAM=VALUE], e.g. coulomb_friction:coulomb_v=0.004", {},
-                0, option);
-  }
-  const EffectKind kind = effect_kind_from_name(spec.substr(0, colon), option);
-  const std::vector<EffectParameter> known = effect_parameters(kind, true);
-  std::string names;
-  for (const EffectParameter& p : known) names += std::string(names.empty() ? "" : ", ") + p.name;
-  if (kind == EffectKind::kNone) throw Error("\"none\" is not an effect to fit with", {}, 0, option);
-  Effects one;  // this effect's values on defaults: validate_effects can only object to them
-  std::size_t start = colon + 1;
-  bool any = false;
-  while (start <= spec.size()) {
-    const std::size_t end = std::min(spec.find(',', start), spec.size());
-    const std::string item = spec.substr(start, end - start);
-    const std::size_t eq = item.find('=');
-    const std::string key = item.substr(0, eq);
-    const EffectParameter* param = nullptr;
-    for (const EffectParameter& p : known) {
-      if (key == p.name) param = &p;
-    }
-    if (eq == std::string::npos || param == nullptr) {
-      throw Error("expected PARAM=VALUE with PARAM one of " + names + ", found \"" + item + "\"", {},
-                  0, option);
-    }
-    const std::string text = item.substr(eq + 1);
-    char* rest = nullptr;
-    const double x = std::strtod(text.c_str(), &rest);
-    if (text.empty() || rest == nullptr || *rest != '\0') {
-      throw Error("expected a number for " + key + ", found \"" + text + "\"", {}, 0, option);
-    }
-    one.*(param->member) = x;
-    any = true;
-    start = end + 1;
-  }
-  if (!any) throw Error("no parameter given", {}, 0, option);
-  validate_effects(one, "--effect " + spec.substr(0, colon) + ":");
-  if (!effect_active(one, kind)) {
-    throw Error("these values leave " + std::string(effect_name(kind)) + " off", {}, 0, option);
-  }
-  for (const EffectParameter& p : known) effects.*(p.member) = one.*(p.member);
-}
 
 ModelFile make_model_file(const Dataset& ds, const DatasetFit& fit) {
   ModelFile model;

@@ -24,12 +24,6 @@ struct FitCommandOptions {
   bool refine_effects = false;
 };
 
-/// Sets the effect one `--effect NAME:PARAM=VALUE[,PARAM=VALUE]` names in `effects`: NAME a
-/// catalogue name (effect_kind_from_name), PARAM one of effect_parameters(kind, true); parameters
-/// not given keep their defaults. Throws alphainv::Error naming the option (field "--effect …")
-/// on bad syntax, names or values (validate_effects), or a spec that leaves the effect off.
-void apply_effect_option(const std::string& spec, alphainv::Effects& effects);
-
 /// `omni_fit fit`: returns the process exit code (0 ok, 2 bad input, 3 fit failure).
 int run_fit(const FitCommandOptions& options);
 

@@ -102,9 +102,8 @@ int main(int argc, char** argv) {
                    "include them, the written model carries them");
   fitc->add_option("--effect", fo.effect_specs,
                    "a known effect NAME:PARAM=VALUE[,PARAM=VALUE], repeatable, after "
-                   "--effects-from; e.g. coulomb_friction:coulomb_v=0.004 (names: coulomb_friction, "
-                   "offset_torque, gravity, cogging, time_delay, saturation, deadzone; parameters "
-                   "as in model.json)")
+                   "--effects-from; e.g. coulomb_friction:coulomb_v=0.004 (names: " +
+                       alphainv::effect_names_text() + "; parameters as in model.json)")
       ->allow_extra_args(false);
   fitc->add_flag("--refine-effects", fo.refine_effects,
                  "refine the known effects' parameters on all runs: each trial a whole fit, "

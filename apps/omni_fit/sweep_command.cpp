@@ -24,65 +24,68 @@ using namespace alphainv;
 /// One generated case.
 struct SweepCase {
   EffectKind effect = EffectKind::kNone;
-  double magnitude = 0.0;  ///< the effect's main parameter (see apply)
+  double magnitude = 0.0;  ///< the effect's first parameter (see apply)
   double noise_std_rad = 5e-5;
   std::uint64_t seed = 1;
-  /// --vary: the magnitude's factor and the other parameters (cogging period and phase, gravity
-  /// θ0), drawn from the seed; otherwise factor 1, period 0.02 rad, phase 0.5 rad, θ0 = 0.
-  double factor = 1.0, cogging_period_rad = 0.02, cogging_phase_rad = 0.5, gravity_theta0_rad = 0.0;
+  /// --vary: the magnitude's factor, and the effect's other parameters drawn from the seed
+  /// (EffectParameter::sweep_vary_lo, sweep_vary_span); otherwise factor 1 and their sweep_fixed values.
+  double factor = 1.0;
+  std::vector<double> others;  ///< the effect's parameters after the first, in table order
+  bool varied = false;
 };
 
-/// The --vary draws of a case (deterministic in the seed and the effect).
+/// The effect's other parameters with a sweep value (those with a --vary range or a fixed value).
+std::vector<const EffectParameter*> swept_others(EffectKind kind) {
+  std::vector<const EffectParameter*> out;
+  const EffectSpec& spec = effect_spec(kind);
+  for (std::size_t j = 1; j < spec.parameter_count; ++j) {
+    const EffectParameter& p = spec.parameters[j];
+    if (!p.modelling_choice) out.push_back(&p);
+  }
+  return out;
+}
+
+/// The fixed values of a case's other parameters.
+void set_fixed(SweepCase& c) {
+  c.others.clear();
+  for (const EffectParameter* p : swept_others(c.effect)) c.others.push_back(p->sweep_fixed);
+}
+
+/// The --vary draws of a case (deterministic in the seed and the effect): the factor, then each
+/// other parameter with a range, in table order.
 void draw_variation(SweepCase& c) {
   std::mt19937_64 rng(c.seed * 1315423911u + static_cast<std::uint64_t>(c.effect) * 2654435761u);
   std::uniform_real_distribution<double> u(0.0, 1.0);
   c.factor = std::exp(std::log(0.6) + u(rng) * (std::log(1.6) - std::log(0.6)));  // 0.6 … 1.6
-  c.cogging_period_rad = 0.012 + u(rng) * 0.018;  // 0.012 … 0.03 rad: 5 … 12 periods over ±0.07
-  c.cogging_phase_rad = -3.14159 + u(rng) * 6.28318;
-  c.gravity_theta0_rad = -0.5 + u(rng) * 1.0;
+  c.others.clear();
+  for (const EffectParameter* p : swept_others(c.effect)) {
+    c.others.push_back(p->sweep_vary_span > 0.0 ? p->sweep_vary_lo + u(rng) * p->sweep_vary_span
+                                                : p->sweep_fixed);
+  }
+  c.varied = true;
 }
 
-/// The hidden effect's main parameter: the magnitude times the factor (a larger factor is a
+/// The hidden effect's first parameter: the magnitude times the factor (a larger factor is a
 /// stronger effect: for a saturation, a lower limit).
 double hidden_magnitude(const SweepCase& c) {
-  return c.effect == EffectKind::kSaturation ? c.magnitude / c.factor : c.magnitude * c.factor;
+  return effect_spec(c.effect).stronger_when_smaller ? c.magnitude / c.factor : c.magnitude * c.factor;
 }
 
 /// Sets the hidden effect on the plant. Magnitudes are in the plant's units (V, s, rad).
 void apply(const SweepCase& c, Effects& e) {
-  const double m = hidden_magnitude(c);
-  switch (c.effect) {
-    case EffectKind::kNone: break;
-    case EffectKind::kCoulombFriction: e.coulomb_v = m; break;
-    case EffectKind::kOffsetTorque: e.offset_v = m; break;
-    case EffectKind::kGravity:
-      e.gravity_v = m;
-      e.gravity_theta0_rad = c.gravity_theta0_rad;
-      break;
-    case EffectKind::kCogging:
-      e.cogging_v = m;
-      e.cogging_period_rad = c.cogging_period_rad;
-      e.cogging_phase_rad = c.cogging_phase_rad;
-      break;
-    case EffectKind::kTimeDelay: e.delay_s = m; break;
-    case EffectKind::kSaturation: e.saturation_v = m; break;
-    case EffectKind::kDeadzone: e.deadzone_v = m; break;
-  }
+  if (c.effect == EffectKind::kNone) return;
+  const EffectSpec& spec = effect_spec(c.effect);
+  e.*(spec.parameters[0].member) = hidden_magnitude(c);
+  const std::vector<const EffectParameter*> others = swept_others(c.effect);
+  for (std::size_t j = 0; j < others.size() && j < c.others.size(); ++j)
+    e.*(others[j]->member) = c.others[j];
 }
 
-/// Two magnitudes per effect: clearly visible, and about half of that.
+/// Two magnitudes per effect: clearly visible, and about half of that (EffectSpec).
 std::vector<double> magnitudes(EffectKind k) {
-  switch (k) {
-    case EffectKind::kCoulombFriction: return {0.02, 0.01};
-    case EffectKind::kOffsetTorque: return {0.02, 0.01};
-    case EffectKind::kGravity: return {0.3, 0.15};
-    case EffectKind::kCogging: return {0.02, 0.01};
-    case EffectKind::kTimeDelay: return {0.004, 0.002};
-    case EffectKind::kSaturation: return {0.12, 0.2};
-    case EffectKind::kDeadzone: return {0.01, 0.005};
-    case EffectKind::kNone: return {0.0};
-  }
-  return {0.0};
+  if (k == EffectKind::kNone) return {0.0};
+  const auto& m = effect_spec(k).sweep_magnitudes;
+  return {m[0], m[1]};
 }
 
 }  // namespace
@@ -133,8 +136,9 @@ int run_sweep(const SweepCommandOptions& o) {
           for (int r = 0; r < repeat; ++r)
             cases.push_back({k, m, noise, seed + 1000u * static_cast<std::uint64_t>(r)});
   }
-  if (o.vary) {
-    for (SweepCase& c : cases) draw_variation(c);
+  for (SweepCase& c : cases) {
+    if (o.vary) draw_variation(c);
+    else set_fixed(c);
   }
   std::map<std::pair<int, int>, int> matrix;  // (true, named) → count
   int right = 0, named_effect = 0, cut_ok = 0, none_cases = 0, none_right = 0;
@@ -179,16 +183,7 @@ int run_sweep(const SweepCommandOptions& o) {
     gen_cmd.precision(6);
     gen_cmd << "omni_gen paper -o DIR --seed " << c.seed << " --pose " << c.seed % poses.size()
             << (hidden.coulomb_v > 0.0 ? "" : " --no-coulomb") << " --noise-std " << c.noise_std_rad;
-    const std::pair<const char*, double> gen_effects[] = {
-        {"offset", hidden.offset_v}, {"gravity", hidden.gravity_v},
-        {"gravity_theta0", hidden.gravity_theta0_rad}, {"cogging", hidden.cogging_v},
-        {"cogging_period", hidden.cogging_v != 0.0 ? hidden.cogging_period_rad : 0.0},
-        {"cogging_phase", hidden.cogging_v != 0.0 ? hidden.cogging_phase_rad : 0.0},
-        {"coulomb", hidden.coulomb_v}, {"delay", hidden.delay_s}, {"deadzone", hidden.deadzone_v},
-        {"saturation", std::isfinite(hidden.saturation_v) ? hidden.saturation_v : 0.0}};
-    for (const auto& [name, x] : gen_effects) {
-      if (x != 0.0) gen_cmd << " --effect " << name << "=" << x;
-    }
+    for (EffectKind k : active_effects(hidden)) gen_cmd << " --effect " << effect_spec_text(hidden, k);
     jcases.push_back({{"effect", effect_name(c.effect)}, {"magnitude", magnitude},
                       {"hidden", effects_text(hidden)}, {"generate", gen_cmd.str()},
                       {"noise_std_rad", c.noise_std_rad}, {"seed", c.seed},

@@ -1,5 +1,5 @@
 // omni_gen: generates datasets (alphainv-dataset/1) from the virtual Omni.
-//   omni_gen paper -o DIR [--seed N] [--effect NAME=VALUE ...] [--noise-std RAD]
+//   omni_gen paper -o DIR [--seed N] [--effect NAME:PARAM=VALUE ...] [--noise-std RAD]
 //                         [--quantisation RAD] [--no-coulomb] [--truth-columns]
 // A thin layer over alphainv::make_experiment_plan / generate_dataset / write_dataset.
 // Every error prints one line on stderr naming the option and exits with code 2.
@@ -11,7 +11,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <map>
 #include <string>
 #include <system_error>
 #include <vector>
@@ -25,46 +24,14 @@ namespace {
 namespace fs = std::filesystem;
 using namespace alphainv;
 
-/// One --effect name: the PlantEffects member it sets and its unit.
-struct EffectName {
-  double PlantEffects::*member;
-  const char* field;  // the validation field, "effects.<member>"
-  const char* help;
-};
-
-const std::map<std::string, EffectName>& effect_names() {
-  static const std::map<std::string, EffectName> names = {
-      {"coulomb", {&PlantEffects::coulomb_v, "effects.coulomb_v", "Coulomb friction Fc [V]"}},
-      {"coulomb_smoothing",
-       {&PlantEffects::coulomb_smoothing_rad_s, "effects.coulomb_smoothing_rad_s",
-        "tanh smoothing velocity eps [rad/s]"}},
-      {"offset", {&PlantEffects::offset_v, "effects.offset_v", "offset torque d0 [V]"}},
-      {"gravity",
-       {&PlantEffects::gravity_v, "effects.gravity_v",
-        "gravity g [V], n = -g sin(theta + theta0)"}},
-      {"gravity_theta0",
-       {&PlantEffects::gravity_theta0_rad, "effects.gravity_theta0_rad",
-        "gravity phase theta0 [rad]"}},
-      {"cogging", {&PlantEffects::cogging_v, "effects.cogging_v", "cogging amplitude a [V]"}},
-      {"cogging_period",
-       {&PlantEffects::cogging_period_rad, "effects.cogging_period_rad", "cogging period p [rad]"}},
-      {"cogging_phase",
-       {&PlantEffects::cogging_phase_rad, "effects.cogging_phase_rad", "cogging phase [rad]"}},
-      {"delay", {&PlantEffects::delay_s, "effects.delay_s", "command delay tau [s]"}},
-      {"saturation",
-       {&PlantEffects::saturation_v, "effects.saturation_v",
-        "amplifier limit v_max [V] (inf: none)"}},
-      {"deadzone", {&PlantEffects::deadzone_v, "effects.deadzone_v", "amplifier deadzone d [V]"}},
-  };
-  return names;
-}
-
 /// Maps a validation field back to the command-line option that sets it.
 std::string option_for_field(const std::string& field) {
   const std::string prefix = "plant.";
   const std::string f = field.rfind(prefix, 0) == 0 ? field.substr(prefix.size()) : field;
-  for (const auto& [name, e] : effect_names()) {
-    if (f == e.field) return "--effect " + name;
+  for (const EffectSpec& spec : kEffectCatalogue) {
+    for (const EffectParameter& p : spec) {
+      if (f == std::string("effects.") + p.name) return "--effect " + std::string(spec.name);
+    }
   }
   if (f == "measurement.noise_std_rad") return "--noise-std";
   if (f == "measurement.quantisation_rad") return "--quantisation";
@@ -129,7 +96,7 @@ int run_paper(const PaperArgs& args, const std::string& cmd) {
     options.sine_poses = {poses[static_cast<std::size_t>(args.pose)]};
     options.square_poses = options.sine_poses;
   }
-  PlantEffects& effects = options.plant.effects;
+  Effects& effects = options.plant.effects;
   if (args.no_coulomb) effects.coulomb_v = 0.0;
   if (!std::isnan(args.noise_std_rad)) options.plant.measurement.noise_std_rad = args.noise_std_rad;
   if (!std::isnan(args.quantisation_rad)) {
@@ -137,24 +104,17 @@ int run_paper(const PaperArgs& args, const std::string& cmd) {
   }
   for (const std::string& spec : args.effects) {
     const std::string option = "--effect " + spec;
-    const auto eq = spec.find('=');
-    if (eq == std::string::npos || eq == 0) return fail(option, "expected NAME=VALUE");
-    const std::string name = spec.substr(0, eq), value = spec.substr(eq + 1);
-    const auto it = effect_names().find(name);
-    if (it == effect_names().end()) {
-      std::string known;
-      for (const auto& [n, e] : effect_names()) known += (known.empty() ? "" : ", ") + n;
-      return fail(option, "unknown effect '" + name + "' (known: " + known + ")");
+    try {
+      Effects one;
+      apply_effect_spec(spec, one, option);
+      const EffectKind kind = effect_kind_from_name(spec.substr(0, spec.find_first_of(":=")));
+      if (kind == EffectKind::kCoulombFriction && args.no_coulomb) {
+        return fail(option, "contradicts --no-coulomb");
+      }
+      for (const EffectParameter& p : effect_spec(kind)) effects.*(p.member) = one.*(p.member);
+    } catch (const Error& e) {
+      return fail(option, e.message());
     }
-    if (name == "coulomb" && args.no_coulomb) {
-      return fail(option, "contradicts --no-coulomb");
-    }
-    char* end = nullptr;
-    const double x = std::strtod(value.c_str(), &end);
-    if (value.empty() || end != value.c_str() + value.size() || std::isnan(x)) {
-      return fail(option, "expected a number, got '" + value + "'");
-    }
-    effects.*(it->second.member) = x;
   }
 
   ExperimentPlan plan;
@@ -204,7 +164,7 @@ int main(int argc, char** argv) {
   app.footer(
       "Example:\n"
       "  omni_gen paper -o data/omni_yaw_sim --seed 1\n"
-      "  omni_gen paper -o /tmp/gravity --seed 5 --no-coulomb --effect gravity=0.02 --noise-std 0");
+      "  omni_gen paper -o /tmp/gravity --seed 5 --no-coulomb --effect gravity:gravity_v=0.02,gravity_theta0_rad=0.1 --noise-std 0");
 
   PaperArgs args;
   auto* paper = app.add_subcommand(
@@ -221,9 +181,15 @@ int main(int argc, char** argv) {
                    "seed of the true poses and the measurement noise, 0..2^64-1")
       ->type_name("N")
       ->capture_default_str();
-  std::string effect_help = "set a plant effect, NAME=VALUE, repeatable; 0 = off. Names:";
-  for (const auto& [name, e] : effect_names())
-    effect_help += std::string("\n  ") + name + ": " + e.help;
+  std::string effect_help =
+      "set a plant effect, NAME:PARAM=VALUE[,PARAM=VALUE] (model.json's names, as `omni_fit fit "
+      "--effect` takes them) or NAME=VALUE for its first parameter; repeatable. Effects:";
+  for (const EffectSpec& spec : kEffectCatalogue) {
+    if (spec.kind == EffectKind::kNone) continue;
+    effect_help += std::string("\n  ") + spec.name + ": " + spec.description;
+    for (const EffectParameter& p : spec)
+      effect_help += std::string("\n    ") + p.name + ": " + p.description + " [" + p.unit + "]";
+  }
   paper->add_option("--effect", args.effects, effect_help)->take_all()->allow_extra_args(false);
   const CLI::Validator non_negative(
       [](std::string& text) -> std::string {
@@ -253,7 +219,7 @@ int main(int argc, char** argv) {
                   "beta_tilde_true to every run");
   paper->footer(
       "Example:\n  omni_gen paper -o data/omni_yaw_sim --seed 1\n"
-      "  omni_gen paper -o /tmp/delay --seed 2 --effect delay=0.002 --effect deadzone=0.005");
+      "  omni_gen paper -o /tmp/delay --seed 2 --effect time_delay=0.002 --effect deadzone=0.005");
 
   try {
     app.parse(argc, argv);

@@ -110,6 +110,10 @@ struct DataScales {
   double v_max = 1.0;          ///< largest |v| [command unit]
   double theta_dot_rms = 1.0;  ///< RMS of the measured θ̇ [position unit/s]
   double theta_min = 0.0, theta_max = 0.0;
+  double kp = 1.0;  ///< the first run's proportional gain [command unit / position unit]
+
+  /// What the effect table's search rules are sized by (EffectSpec).
+  EffectScales effect() const { return {v_max, kp, theta_min, theta_max}; }
 };
 
 /// One effect kind's parameters as an output-error parameter block: names, starts, bounds.
@@ -172,67 +176,32 @@ Eigen::VectorXd regress(const std::vector<std::vector<double>>& cols, const std:
   return b;
 }
 
-/// Equation-error starts of the torque-like effects from n̂.
+/// n̂ and the measured θ, θ̇ as the effect table's equation-error starts see them (regress()).
+class TorqueResidualRegression final : public TorqueRegression {
+ public:
+  explicit TorqueResidualRegression(const TorqueResidual& tr) : tr_(tr) {}
+  std::size_t size() const override { return tr_.n_hat.size(); }
+  const std::vector<double>& theta() const override { return tr_.theta; }
+  const std::vector<double>& theta_dot() const override { return tr_.theta_dot; }
+  std::vector<double> fit(const std::vector<std::vector<double>>& columns, double* r2) const override {
+    const Eigen::VectorXd b = regress(columns, tr_.n_hat, r2);
+    return std::vector<double>(b.data(), b.data() + b.size());
+  }
+
+ private:
+  const TorqueResidual& tr_;
+};
+
+/// Equation-error starts of the torque-like effects from n̂ (EffectSpec::equation_error_start).
 void equation_error_start(EffectKind kind, const TorqueResidual& tr, const DataScales& sc,
                           Effects& e) {
-  const std::size_t n = tr.n_hat.size();
-  if (n < 20) return;
-  std::vector<double> ones(n, 1.0);
-  switch (kind) {
-    case EffectKind::kCoulombFriction: {
-      std::vector<double> s(n);
-      for (std::size_t k = 0; k < n; ++k) s[k] = -std::tanh(tr.theta_dot[k] / e.coulomb_smoothing_rad_s);
-      const Eigen::VectorXd b = regress({s, ones}, tr.n_hat, nullptr);
-      e.coulomb_v = std::clamp(b(0), 0.0, sc.v_max);
-      break;
-    }
-    case EffectKind::kOffsetTorque: {
-      const Eigen::VectorXd b = regress({ones}, tr.n_hat, nullptr);
-      e.offset_v = std::clamp(b(0), -sc.v_max, sc.v_max);
-      break;
-    }
-    case EffectKind::kGravity: {
-      std::vector<double> s(n), c(n);
-      for (std::size_t k = 0; k < n; ++k) {
-        s[k] = std::sin(tr.theta[k]);
-        c[k] = std::cos(tr.theta[k]);
-      }
-      // −g·sin(θ + θ0) = −g·cos θ0·sin θ − g·sin θ0·cos θ
-      const Eigen::VectorXd b = regress({s, c}, tr.n_hat, nullptr);
-      e.gravity_v = std::min(std::hypot(b(0), b(1)), 2.0 * sc.v_max);
-      e.gravity_theta0_rad = std::atan2(-b(1), -b(0));
-      break;
-    }
-    case EffectKind::kCogging: {
-      // a·sin(2πθ/p + φ) = a cos φ·sin(2πθ/p) + a sin φ·cos(2πθ/p), best p on a log grid.
-      const double range = std::max(sc.theta_max - sc.theta_min, 1e-9);
-      double best_r2 = -kInf;
-      // Periods from range/400 to range/3: a torque periodic in θ shows at least three periods
-      // over the motion (a longer one is a spring or an offset, not cogging).
-      for (int g = 0; g < 80; ++g) {
-        const double p = range / 400.0 * std::pow(400.0 / 3.0, g / 79.0);
-        std::vector<double> s(n), c(n);
-        for (std::size_t k = 0; k < n; ++k) {
-          s[k] = std::sin(kTwoPi * tr.theta[k] / p);
-          c[k] = std::cos(kTwoPi * tr.theta[k] / p);
-        }
-        double r2 = kNaN;
-        const Eigen::VectorXd b = regress({s, c, ones}, tr.n_hat, &r2);
-        if (std::isfinite(r2) && r2 > best_r2) {
-          best_r2 = r2;
-          e.cogging_period_rad = p;
-          e.cogging_v = std::min(std::hypot(b(0), b(1)), sc.v_max);
-          e.cogging_phase_rad = std::atan2(b(1), b(0));
-        }
-      }
-      break;
-    }
-    default:
-      break;
-  }
+  const EffectSpec& spec = effect_spec(kind);
+  if (tr.n_hat.size() < 20 || spec.equation_error_start == nullptr) return;
+  spec.equation_error_start(TorqueResidualRegression(tr), sc.effect(), e);
 }
 
-/// The parameter block of `kind` with starts from `e` and bounds from the data scales.
+/// The parameter block of `kind` with starts from `e` and bounds from the data scales
+/// (EffectParameter::search_bounds).
 ParamBlock param_block(EffectKind kind, const Effects& e, const DataScales& sc) {
   ParamBlock b;
   b.kind = kind;
@@ -240,20 +209,7 @@ ParamBlock param_block(EffectKind kind, const Effects& e, const DataScales& sc) 
   for (const auto& p : b.params) {
     const double x = e.*(p.member);
     double lo = -kInf, hi = kInf;
-    const std::string name = p.name;
-    if (name == "coulomb_v") lo = 0.0, hi = 2.0 * sc.v_max;
-    if (name == "offset_v") lo = -sc.v_max, hi = sc.v_max;
-    if (name == "gravity_v") lo = -2.0 * sc.v_max, hi = 2.0 * sc.v_max;
-    if (name == "gravity_theta0_rad" || name == "cogging_phase_rad") lo = -4 * kTwoPi, hi = 4 * kTwoPi;
-    if (name == "cogging_v") lo = -sc.v_max, hi = sc.v_max;
-    if (name == "cogging_period_rad") {
-      lo = x / 1.3;
-      hi = std::min(x * 1.3, (sc.theta_max - sc.theta_min) / 3.0);
-      if (!(hi > lo)) hi = lo * 1.01;
-    }
-    if (name == "delay_s") lo = 0.0, hi = 0.2;
-    if (name == "saturation_v") lo = 0.02 * sc.v_max, hi = 3.0 * sc.v_max;
-    if (name == "deadzone_v") lo = 0.0, hi = 0.5 * sc.v_max;
+    p.search_bounds(sc.effect(), x, lo, hi);
     b.start.push_back(std::clamp(x, lo, hi));
     b.lower.push_back(lo);
     b.upper.push_back(hi);
@@ -475,19 +431,18 @@ struct EffectSearch {
   const ParamBlock* block = nullptr;
   Effects base;
   ModelScales unit;  ///< factors 1, shaped like the model's
-  /// x = (k, o), the gravity term −g·sin(θ + θ0) = −k·sin θ − o·cos θ as a spring and an offset
-  /// (k = g·cos θ0, o = g·sin θ0): over a small range of θ the cost is nearly quadratic in (k, o)
-  /// but a curved valley in (g, θ0) when θ0 ≠ 0.
-  bool gravity_spring_offset = false;
+  /// Sets the parameters from search coordinates other than the parameters themselves
+  /// (EffectSpec::from_search, e.g. gravity as a spring and an offset); nullptr: x are the
+  /// parameters.
+  void (*from_search)(const double* x, Effects& e) = nullptr;
   double best_rms = kInf;
   Effects best;
 
   /// Pooled RMS over the fit runs of the model with the block's parameters x.
   double evaluate(const double* x) {
     Effects e = base;
-    if (gravity_spring_offset) {
-      e.gravity_v = std::hypot(x[0], x[1]);
-      e.gravity_theta0_rad = std::atan2(x[1], x[0]);
+    if (from_search != nullptr) {
+      from_search(x, e);
     } else {
       for (std::size_t j = 0; j < block->params.size(); ++j) e.*(block->params[j].member) = x[j];
     }
@@ -573,66 +528,19 @@ std::optional<AlphaModel> best_variant(const Reidentifier& reid, const Effects& 
 /// block set): a coarse scan of the effect's main parameter on a grid scaled by the data (largest
 /// command v_max, gain kp), with the equation-error start `e` among the points, then Nelder-Mead
 /// from the best point (and the second best when nearly as good). Returns false when no evaluation succeeded.
-bool search_reidentified(EffectKind kind, const Effects& e, const DataScales& sc, double kp,
-                         EffectSearch& s) {
+bool search_reidentified(EffectKind kind, const Effects& e, const DataScales& sc, EffectSearch& s) {
+  const EffectSpec& spec = effect_spec(kind);
+  const EffectScales scales = sc.effect();
   ParamBlock block = param_block(kind, e, sc);
-  if (kind == EffectKind::kGravity) {  // searched as (spring k, offset o): see EffectSearch
-    const double g = block.start[0], th0 = block.start[1];
-    block.start = {g * std::cos(th0), g * std::sin(th0)};
-    block.lower = {-2.0 * sc.v_max, -sc.v_max};
-    block.upper = {2.0 * sc.v_max, sc.v_max};
-    s.gravity_spring_offset = true;
+  if (spec.to_search != nullptr) {  // searched in other coordinates (EffectSpec::to_search)
+    spec.to_search(scales, block.start, block.lower, block.upper);
+    s.from_search = spec.from_search;
   }
   s.block = &block;
-  const double vm = sc.v_max;
-  std::vector<std::vector<double>> grid{block.start};
   std::vector<double> step;
-  for (std::size_t j = 0; j < block.params.size(); ++j) {
-    const std::string name = block.params[j].name;
-    const double x = block.start[j];
-    double st = 0.5 * std::abs(x);
-    if (name == "coulomb_v" || name == "offset_v" || name == "cogging_v") st = std::max(st, 0.02 * vm);
-    if (name == "gravity_v") st = 0.1 * kp;  // the spring k
-    if (name == "gravity_theta0_rad") st = std::max(0.5 * std::abs(block.start[1]), 0.02 * vm);  // the offset o
-    if (name == "cogging_phase_rad") st = 0.5;
-    if (name == "cogging_period_rad") st = 0.02 * x;
-    if (name == "saturation_v") st = 0.1 * vm;
-    step.push_back(st);  // delay and deadzone: set from the chosen start below
-  }
-  switch (kind) {
-    case EffectKind::kCoulombFriction:
-      for (double f : {0.005, 0.01, 0.02, 0.04, 0.08, 0.16, 0.3}) grid.push_back({f * vm});
-      break;
-    case EffectKind::kOffsetTorque:
-      grid.push_back({0.0});
-      break;
-    case EffectKind::kGravity: {
-      // A spring k of either sign, up to about the controller's stiffness kp, in ratios of about
-      // 1.4 (a spring the model has absorbed has a narrow valley), with no offset (a pure spring)
-      // and with the equation-error start's offset o (whose spring, from a model that absorbed
-      // it, can have the wrong sign).
-      const double o = block.start[1];
-      for (double f : {-0.3, -0.1, 0.035, 0.05, 0.07, 0.1, 0.14, 0.2, 0.28, 0.4, 0.56}) {
-        grid.push_back({f * kp, 0.0});
-        if (std::abs(o) > 0.005 * vm) grid.push_back({f * kp, o});
-      }
-      break;
-    }
-    case EffectKind::kTimeDelay:
-      grid.clear();
-      for (double x : {0.0005, 0.001, 0.002, 0.004, 0.008, 0.016, 0.032}) grid.push_back({x});
-      break;
-    case EffectKind::kSaturation:
-      grid.clear();
-      for (double f : {0.95, 0.8, 0.6, 0.4, 0.25}) grid.push_back({f * vm});
-      break;
-    case EffectKind::kDeadzone:
-      grid.clear();
-      for (double f : {0.005, 0.01, 0.02, 0.05, 0.1, 0.2}) grid.push_back({f * vm});
-      break;
-    default:
-      break;
-  }
+  for (std::size_t j = 0; j < block.params.size(); ++j)
+    step.push_back(block.params[j].search_step(scales, block.start[j], block.start));
+  std::vector<std::vector<double>> grid = spec.search_grid(scales, block.start);
   std::vector<std::pair<double, std::size_t>> scored;
   for (std::size_t g = 0; g < grid.size(); ++g) {
     for (std::size_t j = 0; j < grid[g].size(); ++j)
@@ -648,8 +556,8 @@ bool search_reidentified(EffectKind kind, const Effects& e, const DataScales& sc
       starts.push_back(grid[scored[k].second]);
   }
   // Steps no larger than the grid's spacing near the start.
-  if (kind == EffectKind::kTimeDelay && !starts.empty()) step[0] = 0.4 * starts.front()[0];
-  if (kind == EffectKind::kDeadzone && !starts.empty()) step[0] = 0.4 * starts.front()[0];
+  if (spec.step_of_chosen_start > 0.0 && !starts.empty())
+    step[0] = spec.step_of_chosen_start * starts.front()[0];
   search_effect(s, starts, step, 6 + 6 * static_cast<int>(block.params.size()));
   s.block = nullptr;
   return std::isfinite(s.best_rms);
@@ -880,6 +788,7 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
     if (!(sc.v_max > 0)) sc.v_max = 1.0;
     sc.theta_dot_rms = n > 0 ? std::sqrt(vd2 / n) : 1.0;
     if (!(sc.theta_dot_rms > 0)) sc.theta_dot_rms = 1.0;
+    sc.kp = runs_in.front().controller.kp;
   }
   // The Coulomb term's smoothing: 1 % of the RMS velocity (a sharp switch on the data's scale).
   if (!(current.coulomb_v > 0.0)) current.coulomb_smoothing_rad_s = 0.01 * sc.theta_dot_rms;
@@ -1012,10 +921,9 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
       // (unless the search above has already looked).
       if (!searched) {
         const std::size_t at = pr.parameters.size() - 1;  // the new effect's (only) parameter
-        std::vector<double> extra;
-        if (kind == EffectKind::kTimeDelay) extra = {0.001, 0.004, 0.012};
-        if (kind == EffectKind::kSaturation) extra = {0.8 * sc.v_max, 0.5 * sc.v_max, 0.3 * sc.v_max};
-        if (kind == EffectKind::kDeadzone) extra = {0.01 * sc.v_max, 0.05 * sc.v_max};
+        const EffectSpec& spec = effect_spec(kind);
+        const std::vector<double> extra =
+            spec.extra_starts != nullptr ? spec.extra_starts(sc.effect()) : std::vector<double>{};
         for (double x : extra) {
           std::vector<double> p0;
           for (const auto& par : pr.parameters) p0.push_back(par.initial);
@@ -1093,34 +1001,19 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
       }
       // Starts of the new effect.
       Effects e = current;
-      switch (kind) {
-        case EffectKind::kCoulombFriction:
-        case EffectKind::kOffsetTorque:
-        case EffectKind::kGravity:
-        case EffectKind::kCogging:
+      {
+        const EffectSpec& spec = effect_spec(kind);
+        if (spec.equation_error_start != nullptr) {
           equation_error_start(kind, tr, sc, e);
-          break;
-        case EffectKind::kTimeDelay:
-          if (reid.usable()) break;  // scanned with re-identification below
-          e.delay_s = scan_start(runs, fit_runs, e, &Effects::delay_s,
-                                 {0.0005, 0.001, 0.002, 0.004, 0.008, 0.016, 0.032}, ms, opt, alpha);
-          break;
-        case EffectKind::kSaturation:
-          if (reid.usable()) break;
-          e.saturation_v = scan_start(runs, fit_runs, e, &Effects::saturation_v,
-                                      {0.95 * sc.v_max, 0.8 * sc.v_max, 0.6 * sc.v_max,
-                                       0.4 * sc.v_max, 0.25 * sc.v_max},
-                                      ms, opt, alpha);
-          break;
-        case EffectKind::kDeadzone:
-          if (reid.usable()) break;
-          e.deadzone_v = scan_start(runs, fit_runs, e, &Effects::deadzone_v,
-                                    {0.005 * sc.v_max, 0.01 * sc.v_max, 0.02 * sc.v_max,
-                                     0.05 * sc.v_max, 0.1 * sc.v_max, 0.2 * sc.v_max},
-                                    ms, opt, alpha);
-          break;
-        case EffectKind::kNone:
-          break;
+        } else if (kind != EffectKind::kNone && !reid.usable()) {
+          // No regression for it: its first parameter scanned over the search grid (without
+          // re-identification; with it, the search below scans).
+          std::vector<double> values;
+          for (const auto& point : spec.search_grid(sc.effect(), param_block(kind, e, sc).start))
+            values.push_back(point[0]);
+          e.*(spec.parameters[0].member) =
+              scan_start(runs, fit_runs, e, spec.parameters[0].member, values, ms, opt, alpha);
+        }
       }
       // The new effect's parameters searched with the α-model re-identified for each value
       // (Reidentifier); its output-error fit then starts from the best (after every search).
@@ -1140,7 +1033,7 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
         search.opt = &opt;
         search.base = current;
         search.unit = unit_scales;
-        if (search_reidentified(kind, e, sc, runs_in.front().controller.kp, search)) {
+        if (search_reidentified(kind, e, sc, search)) {
           e = search.best;
           double found_rms = kNaN;
           cand_alpha = best_variant(reid, e, runs, fit_runs, unit_scales, opt, false, std::nullopt,

@@ -368,7 +368,7 @@ RunData simulate_planned_run(const ExperimentPlan& plan, std::size_t i) {
 std::string truth_json(const ExperimentPlan& plan) {
   const ExperimentPlanOptions& o = plan.options;
   const VirtualOmniParams& p = o.plant;
-  const PlantEffects& e = p.effects;
+  const Effects& e = p.effects;
   const AlphaModel& a = p.alpha_model;
 
   JsonObject inertia;
@@ -405,17 +405,10 @@ std::string truth_json(const ExperimentPlan& plan) {
            "sin(theta + gravity_theta0_rad) + cogging_v sin(2 pi theta / "
            "cogging_period_rad + cogging_phase_rad); v_eff = clamp(deadzone(v(t - "
            "delay_s)), +-saturation_v); 0 (null for saturation_v) = off")
-      .num("coulomb_v", e.coulomb_v)
-      .num("coulomb_smoothing_rad_s", e.coulomb_smoothing_rad_s)
-      .num("offset_v", e.offset_v)
-      .num("gravity_v", e.gravity_v)
-      .num("gravity_theta0_rad", e.gravity_theta0_rad)
-      .num("cogging_v", e.cogging_v)
-      .num("cogging_period_rad", e.cogging_period_rad)
-      .num("cogging_phase_rad", e.cogging_phase_rad)
-      .num("delay_s", e.delay_s)
-      .num("saturation_v", e.saturation_v)
-      .num("deadzone_v", e.deadzone_v);
+;
+  for (const EffectSpec& spec : kEffectCatalogue) {
+    for (const EffectParameter& par : spec) effects.num(par.name, e.*par.member);
+  }
   JsonObject measurement;
   measurement.num("quantisation_rad", p.measurement.quantisation_rad)
       .num("noise_std_rad", p.measurement.noise_std_rad)

@@ -39,7 +39,7 @@ void model_extremes(const AlphaModel& m, double inertia, double& c_max, double& 
 double stiffest_h_lambda(const VirtualOmniParams& p, double inertia) noexcept {
   double c_max = 0.0, bt_max = 0.0;
   model_extremes(p.alpha_model, inertia, c_max, bt_max);
-  const PlantEffects& e = p.effects;
+  const Effects& e = p.effects;
   const double h = p.tick_period_s / p.substeps;
   double velocity_rate = c_max;
   if (e.coulomb_v > 0.0) velocity_rate += bt_max * e.coulomb_v / e.coulomb_smoothing_rad_s;
@@ -104,7 +104,7 @@ void VirtualOmniParams::validate() const {
   require_finite("initial_theta_dot_rad_s", initial_theta_dot_rad_s);
   require_finite("initial_command_v", initial_command_v);
 
-  const PlantEffects& e = effects;
+  const Effects& e = effects;
   validate_effects(e, "effects.");
   require_nonnegative("measurement.quantisation_rad", measurement.quantisation_rad);
   require_nonnegative("measurement.noise_std_rad", measurement.noise_std_rad);

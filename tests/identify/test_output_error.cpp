@@ -10,7 +10,7 @@ namespace alphainv {
 namespace {
 
 /// Runs of the virtual plant (constant C, β̃ at its default pose, given effects and noise).
-std::vector<RunData> plant_runs(const PlantEffects& fx, double c, double bt, std::uint64_t seed) {
+std::vector<RunData> plant_runs(const Effects& fx, double c, double bt, std::uint64_t seed) {
   VirtualOmniParams p;
   const double i = p.inertia.inertia(deg_to_rad(p.gamma1_deg), deg_to_rad(p.gamma2_deg));
   p.alpha_model = constant_alpha_model(1.0 / (c * i), 1.0 / (bt * i));
@@ -32,7 +32,7 @@ std::vector<RunData> plant_runs(const PlantEffects& fx, double c, double bt, std
 }
 
 TEST(OutputError, RecoversLinearModelCoulombAndOffsetFromTheVirtualPlant) {
-  PlantEffects fx;
+  Effects fx;
   fx.coulomb_v = 0.01;
   fx.offset_v = -0.004;
   const double c_true = 7.5, bt_true = 210.0;

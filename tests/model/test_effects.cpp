@@ -1,8 +1,11 @@
 #include "alphainv/model/effects.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
+#include <set>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -131,6 +134,259 @@ TEST(Effects, ValidationNamesTheBadField) {
   e.cogging_v = 0.1;
   e.cogging_period_rad = 0.0;
   EXPECT_EQ(field_of(e), "model.effects.cogging_period_rad");
+}
+
+// --- the effect table ----------------------------------------------------------------------------
+
+TEST(EffectTable, EntriesAreInKindOrderWithUniqueNamesAndMembers) {
+  std::set<std::string> names, params;
+  std::vector<double Effects::*> members;
+  for (std::size_t i = 0; i < kEffectCatalogue.size(); ++i) {
+    const EffectSpec& s = kEffectCatalogue[i];
+    EXPECT_EQ(static_cast<std::size_t>(s.kind), i) << s.name;
+    EXPECT_EQ(kAllEffectKinds[i], s.kind);
+    EXPECT_TRUE(names.insert(s.name).second) << s.name;
+    EXPECT_LE(s.parameter_count, kMaxEffectParameters);
+    EXPECT_FALSE(s.active(Effects{})) << s.name << " is on by default";
+    for (const EffectParameter& p : s) {
+      EXPECT_TRUE(params.insert(p.name).second) << p.name;
+      EXPECT_EQ(std::count(members.begin(), members.end(), p.member), 0) << p.name;
+      members.push_back(p.member);
+      EXPECT_NE(p.search_bounds, nullptr) << p.name;
+      EXPECT_NE(p.search_step, nullptr) << p.name;
+    }
+    if (s.kind == EffectKind::kNone) {
+      EXPECT_EQ(s.role, EffectRole::kNone);
+      continue;
+    }
+    EXPECT_NE(s.role, EffectRole::kNone) << s.name;
+    EXPECT_NE(s.search_grid, nullptr) << s.name;
+    EXPECT_GT(s.sweep_magnitudes[0], 0.0) << s.name;
+    EXPECT_FALSE(s.parameters[0].modelling_choice) << s.name << ": the first parameter is fitted";
+    // Torque effects are started by regression; the command-path ones by a scan of the grid.
+    EXPECT_EQ(s.equation_error_start != nullptr, s.role == EffectRole::kTorque) << s.name;
+    // Setting the first parameter to its sweep magnitude switches the effect on.
+    Effects e;
+    e.*(s.parameters[0].member) = s.sweep_magnitudes[0];
+    EXPECT_TRUE(s.active(e)) << s.name;
+    EXPECT_EQ(active_effects(e), std::vector<EffectKind>{s.kind});
+  }
+  // 11 members of Effects, each in exactly one entry.
+  EXPECT_EQ(members.size(), 11u);
+}
+
+TEST(EffectTable, SearchBoundsGridsAndStepsFollowTheDataScales) {
+  const EffectScales sc{0.5, 2.0, -0.07, 0.07};
+  for (const EffectSpec& s : kEffectCatalogue) {
+    if (s.kind == EffectKind::kNone) continue;
+    std::vector<double> start;
+    for (const EffectParameter& p : effect_parameters(s.kind)) {
+      double lo = 0, hi = 0;
+      p.search_bounds(sc, p.name == std::string("cogging_period_rad") ? 0.02 : 0.01, lo, hi);
+      EXPECT_LT(lo, hi) << p.name;
+      start.push_back(std::clamp(0.01, lo, hi));
+    }
+    const auto grid = s.search_grid(sc, start);
+    ASSERT_FALSE(grid.empty()) << s.name;
+    for (const auto& point : grid) EXPECT_EQ(point.size(), start.size()) << s.name;
+  }
+  // The numbers diagnose searches with.
+  double lo = 0, hi = 0;
+  effect_spec(EffectKind::kCoulombFriction).parameters[0].search_bounds(sc, 0.0, lo, hi);
+  EXPECT_EQ(lo, 0.0);
+  EXPECT_EQ(hi, 1.0);  // 2 v_max
+  effect_spec(EffectKind::kCogging).parameters[1].search_bounds(sc, 0.1, lo, hi);
+  EXPECT_DOUBLE_EQ(lo, 0.1 / 1.3);
+  EXPECT_DOUBLE_EQ(hi, 0.1 / 1.3 * 1.01);  // a third of the motion range is below x/1.3: a sliver
+  const auto sat = effect_spec(EffectKind::kSaturation).search_grid(sc, {});
+  ASSERT_EQ(sat.size(), 5u);
+  EXPECT_DOUBLE_EQ(sat[0][0], 0.95 * 0.5);
+  const auto delay = effect_spec(EffectKind::kTimeDelay).search_grid(sc, {0.1});
+  ASSERT_EQ(delay.size(), 7u);  // the start is replaced by the absolute grid
+  EXPECT_EQ(delay.front()[0], 0.0005);
+  EXPECT_EQ(delay.back()[0], 0.032);
+  // Gravity's grid: the start, then springs of either sign times kp, with and without the offset.
+  const auto grav = effect_spec(EffectKind::kGravity).search_grid(sc, {0.1, 0.05});
+  ASSERT_EQ(grav.size(), 23u);
+  EXPECT_DOUBLE_EQ(grav[1][0], -0.3 * 2.0);
+  EXPECT_EQ(grav[1][1], 0.0);
+  EXPECT_EQ(grav[2][1], 0.05);
+  EXPECT_DOUBLE_EQ(effect_spec(EffectKind::kGravity).parameters[0].search_step(sc, 9.0, {0.1, 0.05}),
+                   0.2);  // a tenth of kp
+}
+
+TEST(EffectTable, GravityIsSearchedAsASpringAndAnOffset) {
+  const EffectSpec& g = effect_spec(EffectKind::kGravity);
+  ASSERT_NE(g.to_search, nullptr);
+  ASSERT_NE(g.from_search, nullptr);
+  const EffectScales sc{0.5, 2.0, -0.07, 0.07};
+  std::vector<double> x{0.3, 0.2}, lower, upper;  // g, θ0
+  g.to_search(sc, x, lower, upper);
+  EXPECT_DOUBLE_EQ(x[0], 0.3 * std::cos(0.2));  // k
+  EXPECT_DOUBLE_EQ(x[1], 0.3 * std::sin(0.2));  // o
+  EXPECT_EQ(lower, (std::vector<double>{-1.0, -0.5}));
+  EXPECT_EQ(upper, (std::vector<double>{1.0, 0.5}));
+  Effects e;
+  g.from_search(x.data(), e);
+  EXPECT_NEAR(e.gravity_v, 0.3, 1e-15);
+  EXPECT_NEAR(e.gravity_theta0_rad, 0.2, 1e-15);
+  // −k·sin θ − o·cos θ is the gravity term −g·sin(θ + θ0).
+  for (double th : {-0.07, 0.0, 0.05}) {
+    EXPECT_NEAR(effect_torque(e, th, 0.0), -x[0] * std::sin(th) - x[1] * std::cos(th), 1e-15);
+  }
+}
+
+/// A TorqueRegression over synthetic samples, solved by the normal equations (a test double of
+/// diagnose's QR).
+class SyntheticTorque final : public TorqueRegression {
+ public:
+  SyntheticTorque(const Effects& truth, double offset_v) {
+    for (int k = 0; k < 2000; ++k) {
+      const double t = 0.001 * k;
+      theta_.push_back(0.07 * std::sin(2 * 3.14159265358979 * 1.3 * t) + 0.01 * std::sin(17.0 * t));
+      theta_dot_.push_back(0.07 * 2 * 3.14159265358979 * 1.3 * std::cos(2 * 3.14159265358979 * 1.3 * t) +
+                           0.17 * std::cos(17.0 * t));
+      n_hat_.push_back(effect_torque(truth, theta_.back(), theta_dot_.back()) + offset_v);
+    }
+  }
+  std::size_t size() const override { return n_hat_.size(); }
+  const std::vector<double>& theta() const override { return theta_; }
+  const std::vector<double>& theta_dot() const override { return theta_dot_; }
+  std::vector<double> fit(const std::vector<std::vector<double>>& x, double* r2) const override {
+    const std::size_t p = x.size();
+    std::vector<double> a(p * p, 0.0), b(p, 0.0);
+    for (std::size_t i = 0; i < p; ++i) {
+      for (std::size_t k = 0; k < size(); ++k) b[i] += x[i][k] * n_hat_[k];
+      for (std::size_t j = 0; j < p; ++j)
+        for (std::size_t k = 0; k < size(); ++k) a[i * p + j] += x[i][k] * x[j][k];
+    }
+    for (std::size_t c = 0; c < p; ++c) {  // Gauss-Jordan (tiny, well-conditioned systems)
+      for (std::size_t r = 0; r < p; ++r) {
+        if (r == c) continue;
+        const double f = a[r * p + c] / a[c * p + c];
+        for (std::size_t j = 0; j < p; ++j) a[r * p + j] -= f * a[c * p + j];
+        b[r] -= f * b[c];
+      }
+    }
+    for (std::size_t c = 0; c < p; ++c) b[c] /= a[c * p + c];
+    if (r2 != nullptr) {
+      double mean = 0, tot = 0, res = 0;
+      for (double y : n_hat_) mean += y / static_cast<double>(size());
+      for (std::size_t k = 0; k < size(); ++k) {
+        double yhat = 0;
+        for (std::size_t j = 0; j < p; ++j) yhat += b[j] * x[j][k];
+        tot += (n_hat_[k] - mean) * (n_hat_[k] - mean);
+        res += (n_hat_[k] - yhat) * (n_hat_[k] - yhat);
+      }
+      *r2 = tot > 0 ? 1.0 - res / tot : std::numeric_limits<double>::quiet_NaN();
+    }
+    return b;
+  }
+
+ private:
+  std::vector<double> theta_, theta_dot_, n_hat_;
+};
+
+TEST(EffectTable, EquationErrorStartsRecoverTheTorqueTerms) {
+  const EffectScales sc{0.5, 2.0, -0.08, 0.08};
+  {
+    Effects truth;
+    truth.coulomb_v = 0.012;
+    truth.coulomb_smoothing_rad_s = 0.01;
+    Effects e;
+    e.coulomb_smoothing_rad_s = 0.01;
+    effect_spec(EffectKind::kCoulombFriction).equation_error_start(SyntheticTorque(truth, 0.003), sc, e);
+    EXPECT_NEAR(e.coulomb_v, 0.012, 1e-12);  // the constant column takes the 0.003 offset
+  }
+  {
+    Effects truth;
+    truth.gravity_v = 0.25;
+    truth.gravity_theta0_rad = -0.4;
+    Effects e;
+    effect_spec(EffectKind::kGravity).equation_error_start(SyntheticTorque(truth, 0.0), sc, e);
+    EXPECT_NEAR(e.gravity_v, 0.25, 1e-10);
+    EXPECT_NEAR(e.gravity_theta0_rad, -0.4, 1e-10);
+  }
+  {
+    Effects truth;
+    truth.offset_v = -0.03;
+    Effects e;
+    effect_spec(EffectKind::kOffsetTorque).equation_error_start(SyntheticTorque(truth, 0.0), sc, e);
+    EXPECT_NEAR(e.offset_v, -0.03, 1e-14);
+  }
+  {
+    // Cogging on the start's log grid of periods: the nearest grid period, an amplitude near a.
+    Effects truth;
+    truth.cogging_v = 0.02;
+    truth.cogging_period_rad = 0.016;
+    truth.cogging_phase_rad = 0.7;
+    Effects e;
+    effect_spec(EffectKind::kCogging).equation_error_start(SyntheticTorque(truth, 0.0), sc, e);
+    EXPECT_NEAR(e.cogging_period_rad, 0.016, 0.016 * 0.04);  // grid ratio (400/3)^(1/79) ≈ 1.064
+    EXPECT_GT(e.cogging_v, 0.005);
+  }
+}
+
+TEST(EffectTable, SpecsReadAndWriteEveryEffect) {
+  Effects e;
+  apply_effect_spec("cogging:cogging_v=0.02,cogging_period_rad=0.015", e);
+  EXPECT_EQ(e.cogging_v, 0.02);
+  EXPECT_EQ(e.cogging_period_rad, 0.015);
+  EXPECT_EQ(e.cogging_phase_rad, 0.0);  // a parameter not given takes its default
+  apply_effect_spec("deadzone=0.01", e);  // the short form sets the first parameter
+  EXPECT_EQ(e.deadzone_v, 0.01);
+  apply_effect_spec("time_delay=0.004", e);
+  EXPECT_EQ(e.delay_s, 0.004);
+  EXPECT_EQ(active_effects(e), (std::vector<EffectKind>{EffectKind::kCogging, EffectKind::kTimeDelay,
+                                                        EffectKind::kDeadzone}));
+  // Every effect written as a spec reads back to the same doubles.
+  Effects all;
+  all.coulomb_v = 0.1 / 3.0;
+  all.offset_v = -0.0264075031;
+  all.gravity_v = 0.3;
+  all.gravity_theta0_rad = 0.221;
+  all.cogging_v = 0.0187;
+  all.cogging_period_rad = 0.01994;
+  all.cogging_phase_rad = -1.0 / 7.0;
+  all.delay_s = 0.004;
+  all.saturation_v = 0.12 / 1.3;
+  all.deadzone_v = 0.013;
+  Effects back;
+  for (EffectKind k : active_effects(all)) apply_effect_spec(effect_spec_text(all, k), back);
+  for (const EffectSpec& s : kEffectCatalogue)
+    for (const EffectParameter& p : s) EXPECT_EQ(back.*p.member, all.*p.member) << p.name;
+  EXPECT_EQ(effect_spec_text(all, EffectKind::kOffsetTorque), "offset_torque:offset_v=-0.0264075031");
+}
+
+TEST(EffectTable, BadSpecsNameTheOptionAndSayWhy) {
+  const auto message = [](const std::string& spec) {
+    Effects e;
+    try {
+      apply_effect_spec(spec, e);
+    } catch (const Error& err) {
+      // The option, or for a value out of range the option's parameter ("--effect NAME:PARAM").
+      const std::string name = spec.substr(0, spec.find_first_of(":="));
+      EXPECT_TRUE(err.field() == "--effect " + spec || err.field().rfind("--effect " + name + ":", 0) == 0)
+          << err.field();
+      return std::string(err.what());
+    }
+    return std::string("no throw");
+  };
+  EXPECT_NE(message("friction=0.1").find("unknown effect \"friction\""), std::string::npos);
+  EXPECT_NE(message("none=1").find("\"none\" is not an effect"), std::string::npos);
+  EXPECT_NE(message("gravity:g=0.1").find("PARAM one of gravity_v, gravity_theta0_rad"),
+            std::string::npos);
+  EXPECT_NE(message("offset_torque:offset_v=abc").find("expected a number for offset_v"),
+            std::string::npos);
+  EXPECT_NE(message("deadzone=0").find("leave deadzone off"), std::string::npos);
+  EXPECT_NE(message("time_delay=2").find("0 <= delay_s <= 1 s"), std::string::npos);
+  Effects e;
+  try {
+    apply_effect_spec("time_delay=2", e);
+  } catch (const Error& err) {
+    EXPECT_EQ(err.field(), "--effect time_delay:delay_s");
+  }
+  EXPECT_NE(message("coulomb_friction").find("expected NAME:PARAM=VALUE"), std::string::npos);
 }
 
 }  // namespace

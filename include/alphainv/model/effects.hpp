@@ -10,10 +10,21 @@
 /// with τ the command delay (time_delay), Z the deadzone Z(v) = sign(v)·max(|v| − d, 0) (deadzone)
 /// and S the clamp to ±v_max (saturation). Torques are in command units. Every effect is off at its
 /// default. The virtual plant, the simulator and the 1 kHz online model all use these functions.
+///
+/// Everything else the code knows about an effect is its entry of the one table, kEffectCatalogue
+/// (below): its name, its parameters with units, checks and search bounds, its modelling choices,
+/// how it enters the equation, the search grid and starts `omni_fit diagnose` uses, and how
+/// `omni_gen` and `omni_fit sweep` set and draw it. A new effect is a member of Effects, its term
+/// in effect_torque() or amplifier() (its physics), one table entry, and its tests
+/// (docs/architecture.md).
 
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstddef>
+#include <cstdio>
+#include <cstdlib>
+#include <initializer_list>
 #include <limits>
 #include <string>
 #include <string_view>
@@ -63,7 +74,7 @@ inline double amplifier(const Effects& e, double v) noexcept {
   return std::clamp(v, -e.saturation_v, e.saturation_v);  // S(v)
 }
 
-/// The catalogue of `omni_fit diagnose`.
+/// The catalogue of `omni_fit diagnose`, in table order (kEffectCatalogue).
 enum class EffectKind {
   kNone,
   kCoulombFriction,
@@ -75,6 +86,338 @@ enum class EffectKind {
   kDeadzone,
 };
 
+/// How an effect enters eq. (11) (file comment).
+enum class EffectRole {
+  kNone,      ///< no term (the catalogue's "none")
+  kTorque,    ///< a term of n(θ, θ̇), effect_torque()
+  kInputMap,  ///< a map of the command before the plant, amplifier()
+  kDelay,     ///< the command delay τ: v(t − τ) (delay lines in the simulator and the plant)
+};
+
+/// The data scales an effect's search is sized by (omni_fit diagnose).
+struct EffectScales {
+  double v_max = 1.0;      ///< largest |command| in the data [command unit]
+  double kp = 1.0;         ///< the controller's proportional gain [command unit / position unit]
+  double theta_min = 0.0;  ///< smallest measured θ [position unit]
+  double theta_max = 0.0;  ///< largest measured θ [position unit]
+};
+
+/// How validate_effects checks a parameter (the message names the field).
+enum class ParameterCheck {
+  kFinite,             ///< a finite number
+  kNonNegative,        ///< finite, ≥ 0
+  kPositiveIfActive,   ///< finite, > 0 when the effect is on
+  kDelayRange,         ///< 0 ≤ τ ≤ Effects::kMaxDelayS
+  kPositiveOrInfinity, ///< a limit > 0 (infinity: none)
+};
+
+/// The measured data an equation-error start regresses on (diagnose implements it): the implied
+/// torque residual n̂ along the fit runs with the measured θ and θ̇ at the same samples.
+class TorqueRegression {
+ public:
+  virtual ~TorqueRegression() = default;
+  /// Number of samples.
+  virtual std::size_t size() const = 0;
+  /// θ [position unit] and θ̇ [position unit/s] at the samples.
+  virtual const std::vector<double>& theta() const = 0;
+  virtual const std::vector<double>& theta_dot() const = 0;
+  /// Least-squares coefficients b of n̂ ≈ Σ b_j·columns[j]; *r2 (if given) the coefficient of
+  /// determination (NaN when n̂ is constant).
+  virtual std::vector<double> fit(const std::vector<std::vector<double>>& columns,
+                                  double* r2) const = 0;
+};
+
+/// One named parameter of an effect, the Effects member that holds it, and what the code knows
+/// about it.
+struct EffectParameter {
+  const char* name;         ///< model.json key and --effect PARAM, e.g. "coulomb_v"
+  double Effects::*member;  ///< where it lives
+  const char* unit;         ///< "command unit", "rad", "s", …
+  const char* description;  ///< one line for --help, e.g. "Coulomb friction level Fc"
+  ParameterCheck check;     ///< how validate_effects checks it
+  /// A modelling choice (stored in model.json, needed by a simulation) rather than a fitted
+  /// parameter, e.g. the smoothing ε of the Coulomb term.
+  bool modelling_choice = false;
+  /// diagnose: the search bounds [lo, hi] from the data scales and the start x.
+  void (*search_bounds)(const EffectScales& scales, double x, double& lo, double& hi) = nullptr;
+  /// diagnose: the Nelder-Mead step from the scales, the start x and the whole start vector of
+  /// the effect's parameters (in search coordinates).
+  double (*search_step)(const EffectScales& scales, double x, const std::vector<double>& start) = nullptr;
+  /// sweep: the value when --vary does not draw it, and the range --vary draws it from,
+  /// uniformly in [sweep_vary_lo, sweep_vary_lo + sweep_vary_span) (span 0: not drawn). Only for
+  /// parameters after the first (the magnitude, which --vary scales by a factor).
+  double sweep_fixed = 0.0;
+  double sweep_vary_lo = 0.0, sweep_vary_span = 0.0;
+};
+
+/// The most parameters one effect has (modelling choices included).
+inline constexpr std::size_t kMaxEffectParameters = 6;
+
+/// Everything the code knows about one effect of the catalogue.
+struct EffectSpec {
+  EffectKind kind;
+  const char* name;         ///< catalogue name, e.g. "coulomb_friction"
+  const char* description;  ///< one line, with its term of eq. (11)
+  EffectRole role;          ///< how it enters eq. (11)
+  std::array<EffectParameter, kMaxEffectParameters> parameters;  ///< the first parameter_count
+  std::size_t parameter_count;
+  /// Whether `e` has this effect switched on.
+  bool (*active)(const Effects& e);
+
+  // --- omni_fit diagnose (src/diagnose) ---------------------------------------------------------
+  /// Equation-error start: sets the effect's parameters in `e` from a regression of n̂ (torque
+  /// effects). nullptr: the effect's first parameter is started by a scan over search_grid.
+  void (*equation_error_start)(const TorqueRegression& n_hat, const EffectScales& scales,
+                               Effects& e) = nullptr;
+  /// The coarse scan of the search with re-identification, in search coordinates, from the start
+  /// vector (which it may keep as its first point).
+  std::vector<std::vector<double>> (*search_grid)(const EffectScales& scales,
+                                                  const std::vector<double>& start) = nullptr;
+  /// Search coordinates other than the parameters (nullptr: the parameters themselves):
+  /// to_search maps the start and sets the bounds, from_search sets the parameters from x.
+  void (*to_search)(const EffectScales& scales, std::vector<double>& start,
+                    std::vector<double>& lower, std::vector<double>& upper) = nullptr;
+  void (*from_search)(const double* x, Effects& e) = nullptr;
+  /// When > 0, the Nelder-Mead step of the first parameter is this fraction of the chosen start
+  /// (no larger than the grid's spacing near it).
+  double step_of_chosen_start = 0.0;
+  /// Extra starts of the first parameter for the output-error fit when no search ran (cost
+  /// functions with several minima).
+  std::vector<double> (*extra_starts)(const EffectScales& scales) = nullptr;
+
+  // --- omni_gen / omni_fit sweep ----------------------------------------------------------------
+  /// Two magnitudes of the first parameter the sweep hides: clearly visible, and about half.
+  std::array<double, 2> sweep_magnitudes{};
+  /// The effect is stronger when its first parameter is smaller (a saturation's limit): the
+  /// sweep's --vary factor divides instead of multiplying.
+  bool stronger_when_smaller = false;
+
+  /// The parameters, modelling choices included.
+  const EffectParameter* begin() const noexcept { return parameters.data(); }
+  const EffectParameter* end() const noexcept { return parameters.data() + parameter_count; }
+};
+
+namespace detail {
+constexpr double kEffectTwoPi = 6.283185307179586476925;
+inline std::vector<std::vector<double>> scaled_grid(double scale, std::initializer_list<double> f) {
+  std::vector<std::vector<double>> g;
+  for (double x : f) g.push_back({x * scale});
+  return g;
+}
+inline double half_start(const EffectScales&, double x, const std::vector<double>&) {
+  return 0.5 * std::abs(x);
+}
+inline double half_start_or_2pc_vmax(const EffectScales& s, double x, const std::vector<double>&) {
+  return std::max(0.5 * std::abs(x), 0.02 * s.v_max);
+}
+inline void phase_bounds(const EffectScales&, double, double& lo, double& hi) {
+  lo = -4 * kEffectTwoPi, hi = 4 * kEffectTwoPi;
+}
+inline void no_bounds(const EffectScales&, double, double& lo, double& hi) {
+  lo = -std::numeric_limits<double>::infinity(), hi = std::numeric_limits<double>::infinity();
+}
+inline std::vector<double> column(std::size_t n, double value) { return std::vector<double>(n, value); }
+}  // namespace detail
+
+/// The one effect table, in EffectKind order ("none" first).
+inline const std::array<EffectSpec, 8> kEffectCatalogue = {{
+    {EffectKind::kNone, "none", "no effect beyond the alpha-invariant model", EffectRole::kNone,
+     {}, 0, [](const Effects&) { return false; }},
+
+    {EffectKind::kCoulombFriction, "coulomb_friction",
+     "Coulomb friction, smoothed: n = -Fc tanh(theta'/eps)", EffectRole::kTorque,
+     {{{"coulomb_v", &Effects::coulomb_v, "command unit", "Coulomb friction level Fc",
+        ParameterCheck::kNonNegative, false,
+        [](const EffectScales& s, double, double& lo, double& hi) { lo = 0.0, hi = 2.0 * s.v_max; },
+        detail::half_start_or_2pc_vmax},
+       {"coulomb_smoothing_rad_s", &Effects::coulomb_smoothing_rad_s, "position unit/s",
+        "tanh smoothing velocity eps", ParameterCheck::kPositiveIfActive, true, detail::no_bounds,
+        detail::half_start}}},
+     2, [](const Effects& e) { return e.coulomb_v > 0.0; },
+     [](const TorqueRegression& r, const EffectScales& s, Effects& e) {
+       std::vector<double> sg(r.size());
+       for (std::size_t k = 0; k < sg.size(); ++k)
+         sg[k] = -std::tanh(r.theta_dot()[k] / e.coulomb_smoothing_rad_s);
+       const std::vector<double> b = r.fit({sg, detail::column(r.size(), 1.0)}, nullptr);
+       e.coulomb_v = std::clamp(b[0], 0.0, s.v_max);
+     },
+     [](const EffectScales& s, const std::vector<double>& start) {
+       std::vector<std::vector<double>> g{start};
+       for (double f : {0.005, 0.01, 0.02, 0.04, 0.08, 0.16, 0.3}) g.push_back({f * s.v_max});
+       return g;
+     },
+     nullptr, nullptr, 0.0, nullptr, {0.02, 0.01}},
+
+    {EffectKind::kOffsetTorque, "offset_torque", "constant offset torque: n = d0",
+     EffectRole::kTorque,
+     {{{"offset_v", &Effects::offset_v, "command unit", "offset torque d0", ParameterCheck::kFinite,
+        false, [](const EffectScales& s, double, double& lo, double& hi) { lo = -s.v_max, hi = s.v_max; },
+        detail::half_start_or_2pc_vmax}}},
+     1, [](const Effects& e) { return e.offset_v != 0.0; },
+     [](const TorqueRegression& r, const EffectScales& s, Effects& e) {
+       const std::vector<double> b = r.fit({detail::column(r.size(), 1.0)}, nullptr);
+       e.offset_v = std::clamp(b[0], -s.v_max, s.v_max);
+     },
+     [](const EffectScales&, const std::vector<double>& start) {
+       return std::vector<std::vector<double>>{start, {0.0}};
+     },
+     nullptr, nullptr, 0.0, nullptr, {0.02, 0.01}},
+
+    {EffectKind::kGravity, "gravity", "gravity: n = -g sin(theta + theta0)", EffectRole::kTorque,
+     {{{"gravity_v", &Effects::gravity_v, "command unit", "gravity torque amplitude g",
+        ParameterCheck::kFinite, false,
+        [](const EffectScales& s, double, double& lo, double& hi) {
+          lo = -2.0 * s.v_max, hi = 2.0 * s.v_max;
+        },
+        // searched as the spring k (to_search): steps of a tenth of the controller's stiffness
+        [](const EffectScales& s, double, const std::vector<double>&) { return 0.1 * s.kp; }},
+       {"gravity_theta0_rad", &Effects::gravity_theta0_rad, "rad", "gravity phase theta0",
+        ParameterCheck::kFinite, false, detail::phase_bounds,
+        // searched as the offset o (to_search)
+        [](const EffectScales& s, double, const std::vector<double>& start) {
+          return std::max(0.5 * std::abs(start[1]), 0.02 * s.v_max);
+        },
+        0.0, -0.5, 1.0}}},
+     2, [](const Effects& e) { return e.gravity_v != 0.0; },
+     [](const TorqueRegression& r, const EffectScales& s, Effects& e) {
+       std::vector<double> sn(r.size()), cs(r.size());
+       for (std::size_t k = 0; k < sn.size(); ++k) {
+         sn[k] = std::sin(r.theta()[k]);
+         cs[k] = std::cos(r.theta()[k]);
+       }
+       // −g·sin(θ + θ0) = −g·cos θ0·sin θ − g·sin θ0·cos θ
+       const std::vector<double> b = r.fit({sn, cs}, nullptr);
+       e.gravity_v = std::min(std::hypot(b[0], b[1]), 2.0 * s.v_max);
+       e.gravity_theta0_rad = std::atan2(-b[1], -b[0]);
+     },
+     // A spring k of either sign, up to about the controller's stiffness kp, in ratios of about
+     // 1.4 (a spring the model has absorbed has a narrow valley), with no offset (a pure spring)
+     // and with the equation-error start's offset o (whose spring, from a model that absorbed
+     // it, can have the wrong sign).
+     [](const EffectScales& s, const std::vector<double>& start) {
+       std::vector<std::vector<double>> g{start};
+       const double o = start[1];
+       for (double f : {-0.3, -0.1, 0.035, 0.05, 0.07, 0.1, 0.14, 0.2, 0.28, 0.4, 0.56}) {
+         g.push_back({f * s.kp, 0.0});
+         if (std::abs(o) > 0.005 * s.v_max) g.push_back({f * s.kp, o});
+       }
+       return g;
+     },
+     // x = (k, o), −g·sin(θ + θ0) = −k·sin θ − o·cos θ as a spring and an offset (k = g·cos θ0,
+     // o = g·sin θ0): over a small range of θ the cost is nearly quadratic in (k, o) but a curved
+     // valley in (g, θ0) when θ0 ≠ 0.
+     [](const EffectScales& s, std::vector<double>& start, std::vector<double>& lower,
+        std::vector<double>& upper) {
+       const double g = start[0], th0 = start[1];
+       start = {g * std::cos(th0), g * std::sin(th0)};
+       lower = {-2.0 * s.v_max, -s.v_max};
+       upper = {2.0 * s.v_max, s.v_max};
+     },
+     [](const double* x, Effects& e) {
+       e.gravity_v = std::hypot(x[0], x[1]);
+       e.gravity_theta0_rad = std::atan2(x[1], x[0]);
+     },
+     0.0, nullptr, {0.3, 0.15}},
+
+    {EffectKind::kCogging, "cogging", "cogging, periodic in theta: n = a sin(2 pi theta/p + phi)",
+     EffectRole::kTorque,
+     {{{"cogging_v", &Effects::cogging_v, "command unit", "cogging amplitude a",
+        ParameterCheck::kFinite, false,
+        [](const EffectScales& s, double, double& lo, double& hi) { lo = -s.v_max, hi = s.v_max; },
+        detail::half_start_or_2pc_vmax},
+       {"cogging_period_rad", &Effects::cogging_period_rad, "position unit", "cogging period p",
+        ParameterCheck::kPositiveIfActive, false,
+        [](const EffectScales& s, double x, double& lo, double& hi) {
+          lo = x / 1.3;
+          hi = std::min(x * 1.3, (s.theta_max - s.theta_min) / 3.0);
+          if (!(hi > lo)) hi = lo * 1.01;
+        },
+        [](const EffectScales&, double x, const std::vector<double>&) { return 0.02 * x; }, 0.02,
+        0.012, 0.018},  // --vary: 0.012 … 0.03 rad, 5 … 12 periods over ±0.07 rad
+       {"cogging_phase_rad", &Effects::cogging_phase_rad, "rad", "cogging phase phi",
+        ParameterCheck::kFinite, false, detail::phase_bounds,
+        [](const EffectScales&, double, const std::vector<double>&) { return 0.5; }, 0.5,
+        -3.14159, 6.28318}}},
+     3, [](const Effects& e) { return e.cogging_v != 0.0; },
+     [](const TorqueRegression& r, const EffectScales& s, Effects& e) {
+       // a·sin(2πθ/p + φ) = a cos φ·sin(2πθ/p) + a sin φ·cos(2πθ/p), best p on a log grid.
+       const double range = std::max(s.theta_max - s.theta_min, 1e-9);
+       double best_r2 = -std::numeric_limits<double>::infinity();
+       // Periods from range/400 to range/3: a torque periodic in θ shows at least three periods
+       // over the motion (a longer one is a spring or an offset, not cogging).
+       for (int g = 0; g < 80; ++g) {
+         const double p = range / 400.0 * std::pow(400.0 / 3.0, g / 79.0);
+         std::vector<double> sn(r.size()), cs(r.size());
+         for (std::size_t k = 0; k < sn.size(); ++k) {
+           sn[k] = std::sin(detail::kEffectTwoPi * r.theta()[k] / p);
+           cs[k] = std::cos(detail::kEffectTwoPi * r.theta()[k] / p);
+         }
+         double r2 = std::numeric_limits<double>::quiet_NaN();
+         const std::vector<double> b = r.fit({sn, cs, detail::column(r.size(), 1.0)}, &r2);
+         if (std::isfinite(r2) && r2 > best_r2) {
+           best_r2 = r2;
+           e.cogging_period_rad = p;
+           e.cogging_v = std::min(std::hypot(b[0], b[1]), s.v_max);
+           e.cogging_phase_rad = std::atan2(b[1], b[0]);
+         }
+       }
+     },
+     [](const EffectScales&, const std::vector<double>& start) {
+       return std::vector<std::vector<double>>{start};
+     },
+     nullptr, nullptr, 0.0, nullptr, {0.02, 0.01}},
+
+    {EffectKind::kTimeDelay, "time_delay", "command transport delay: v(t - tau)",
+     EffectRole::kDelay,
+     {{{"delay_s", &Effects::delay_s, "s", "command delay tau", ParameterCheck::kDelayRange, false,
+        [](const EffectScales&, double, double& lo, double& hi) { lo = 0.0, hi = 0.2; },
+        detail::half_start}}},
+     1, [](const Effects& e) { return e.delay_s > 0.0; }, nullptr,
+     [](const EffectScales&, const std::vector<double>&) {
+       return detail::scaled_grid(1.0, {0.0005, 0.001, 0.002, 0.004, 0.008, 0.016, 0.032});
+     },
+     nullptr, nullptr, 0.4,
+     [](const EffectScales&) { return std::vector<double>{0.001, 0.004, 0.012}; },
+     {0.004, 0.002}},
+
+    {EffectKind::kSaturation, "saturation", "amplifier limit: S(v) = clamp(v, -v_max, v_max)",
+     EffectRole::kInputMap,
+     {{{"saturation_v", &Effects::saturation_v, "command unit", "amplifier limit v_max (inf: none)",
+        ParameterCheck::kPositiveOrInfinity, false,
+        [](const EffectScales& s, double, double& lo, double& hi) {
+          lo = 0.02 * s.v_max, hi = 3.0 * s.v_max;
+        },
+        [](const EffectScales& s, double, const std::vector<double>&) { return 0.1 * s.v_max; }}}},
+     1, [](const Effects& e) { return std::isfinite(e.saturation_v); }, nullptr,
+     [](const EffectScales& s, const std::vector<double>&) {
+       return detail::scaled_grid(s.v_max, {0.95, 0.8, 0.6, 0.4, 0.25});
+     },
+     nullptr, nullptr, 0.0,
+     [](const EffectScales& s) {
+       return std::vector<double>{0.8 * s.v_max, 0.5 * s.v_max, 0.3 * s.v_max};
+     },
+     {0.12, 0.2}, true},
+
+    {EffectKind::kDeadzone, "deadzone", "amplifier deadzone: Z(v) = sign(v) max(|v| - d, 0)",
+     EffectRole::kInputMap,
+     {{{"deadzone_v", &Effects::deadzone_v, "command unit", "amplifier deadzone half-width d",
+        ParameterCheck::kNonNegative, false,
+        [](const EffectScales& s, double, double& lo, double& hi) { lo = 0.0, hi = 0.5 * s.v_max; },
+        detail::half_start}}},
+     1, [](const Effects& e) { return e.deadzone_v > 0.0; }, nullptr,
+     [](const EffectScales& s, const std::vector<double>&) {
+       return detail::scaled_grid(s.v_max, {0.005, 0.01, 0.02, 0.05, 0.1, 0.2});
+     },
+     nullptr, nullptr, 0.4,
+     [](const EffectScales& s) { return std::vector<double>{0.01 * s.v_max, 0.05 * s.v_max}; },
+     {0.01, 0.005}},
+}};
+
+/// The table entry of `kind`.
+inline const EffectSpec& effect_spec(EffectKind kind) noexcept {
+  return kEffectCatalogue[static_cast<std::size_t>(kind)];
+}
+
 /// Every kind, kNone first.
 inline constexpr std::array<EffectKind, 8> kAllEffectKinds = {
     EffectKind::kNone,    EffectKind::kCoulombFriction, EffectKind::kOffsetTorque,
@@ -83,86 +426,50 @@ inline constexpr std::array<EffectKind, 8> kAllEffectKinds = {
 
 /// The catalogue name: "none", "coulomb_friction", "offset_torque", "gravity", "cogging",
 /// "time_delay", "saturation", "deadzone".
-inline const char* effect_name(EffectKind kind) noexcept {
-  switch (kind) {
-    case EffectKind::kNone: return "none";
-    case EffectKind::kCoulombFriction: return "coulomb_friction";
-    case EffectKind::kOffsetTorque: return "offset_torque";
-    case EffectKind::kGravity: return "gravity";
-    case EffectKind::kCogging: return "cogging";
-    case EffectKind::kTimeDelay: return "time_delay";
-    case EffectKind::kSaturation: return "saturation";
-    case EffectKind::kDeadzone: return "deadzone";
+inline const char* effect_name(EffectKind kind) noexcept { return effect_spec(kind).name; }
+
+/// The catalogue's names, comma-separated (for --help and messages); `with_none` adds "none".
+inline std::string effect_names_text(bool with_none = false) {
+  std::string known;
+  for (const EffectSpec& s : kEffectCatalogue) {
+    if (s.kind == EffectKind::kNone && !with_none) continue;
+    known += std::string(known.empty() ? "" : ", ") + s.name;
   }
-  return "none";
+  return known;
 }
 
 /// The kind of a catalogue name; throws alphainv::Error naming the field `field` otherwise.
 inline EffectKind effect_kind_from_name(std::string_view name, const std::string& field = "effect") {
-  for (EffectKind k : kAllEffectKinds) {
-    if (name == effect_name(k)) return k;
+  for (const EffectSpec& s : kEffectCatalogue) {
+    if (name == s.name) return s.kind;
   }
-  std::string known;
-  for (EffectKind k : kAllEffectKinds) known += std::string(known.empty() ? "" : ", ") + effect_name(k);
-  throw Error("unknown effect \"" + std::string(name) + "\"; expected one of " + known, {}, 0,
-              field);
+  throw Error("unknown effect \"" + std::string(name) + "\"; expected one of " +
+                  effect_names_text(true),
+              {}, 0, field);
 }
 
-/// One named parameter of an effect and the Effects member that holds it.
-struct EffectParameter {
-  const char* name;         ///< e.g. "coulomb_v"
-  double Effects::*member;  ///< where it lives
-  const char* unit;         ///< "command unit", "rad", "s", …
-};
-
-/// The parameters an effect of `kind` adds to the model (empty for kNone). The smoothing ε of the
-/// Coulomb term is a modelling choice, not a fitted parameter, and is listed (last) only with
-/// `with_modelling_choices` (what a model file stores and a simulation needs).
-inline std::vector<EffectParameter> effect_parameters(EffectKind kind, bool with_modelling_choices = false) {
-  switch (kind) {
-    case EffectKind::kNone: return {};
-    case EffectKind::kCoulombFriction:
-      if (with_modelling_choices) {
-        return {{"coulomb_v", &Effects::coulomb_v, "command unit"},
-                {"coulomb_smoothing_rad_s", &Effects::coulomb_smoothing_rad_s, "position unit/s"}};
-      }
-      return {{"coulomb_v", &Effects::coulomb_v, "command unit"}};
-    case EffectKind::kOffsetTorque: return {{"offset_v", &Effects::offset_v, "command unit"}};
-    case EffectKind::kGravity:
-      return {{"gravity_v", &Effects::gravity_v, "command unit"},
-              {"gravity_theta0_rad", &Effects::gravity_theta0_rad, "rad"}};
-    case EffectKind::kCogging:
-      return {{"cogging_v", &Effects::cogging_v, "command unit"},
-              {"cogging_period_rad", &Effects::cogging_period_rad, "position unit"},
-              {"cogging_phase_rad", &Effects::cogging_phase_rad, "rad"}};
-    case EffectKind::kTimeDelay: return {{"delay_s", &Effects::delay_s, "s"}};
-    case EffectKind::kSaturation:
-      return {{"saturation_v", &Effects::saturation_v, "command unit"}};
-    case EffectKind::kDeadzone: return {{"deadzone_v", &Effects::deadzone_v, "command unit"}};
+/// The parameters an effect of `kind` adds to the model (empty for kNone). Modelling choices
+/// (e.g. the smoothing ε of the Coulomb term) are listed only with `with_modelling_choices`
+/// (what a model file stores and a simulation needs).
+inline std::vector<EffectParameter> effect_parameters(EffectKind kind,
+                                                      bool with_modelling_choices = false) {
+  std::vector<EffectParameter> out;
+  for (const EffectParameter& p : effect_spec(kind)) {
+    if (with_modelling_choices || !p.modelling_choice) out.push_back(p);
   }
-  return {};
+  return out;
 }
 
 /// Whether `e` has the effect of `kind` switched on.
 inline bool effect_active(const Effects& e, EffectKind kind) noexcept {
-  switch (kind) {
-    case EffectKind::kNone: return false;
-    case EffectKind::kCoulombFriction: return e.coulomb_v > 0.0;
-    case EffectKind::kOffsetTorque: return e.offset_v != 0.0;
-    case EffectKind::kGravity: return e.gravity_v != 0.0;
-    case EffectKind::kCogging: return e.cogging_v != 0.0;
-    case EffectKind::kTimeDelay: return e.delay_s > 0.0;
-    case EffectKind::kSaturation: return std::isfinite(e.saturation_v);
-    case EffectKind::kDeadzone: return e.deadzone_v > 0.0;
-  }
-  return false;
+  return effect_spec(kind).active(e);
 }
 
 /// The kinds switched on in `e`, in catalogue order.
 inline std::vector<EffectKind> active_effects(const Effects& e) {
   std::vector<EffectKind> out;
-  for (EffectKind k : kAllEffectKinds) {
-    if (effect_active(e, k)) out.push_back(k);
+  for (const EffectSpec& s : kEffectCatalogue) {
+    if (s.active(e)) out.push_back(s.kind);
   }
   return out;
 }
@@ -173,7 +480,7 @@ inline std::string effects_text(const Effects& e) {
   std::string text;
   for (EffectKind kind : active_effects(e)) {
     std::string params;
-    for (const EffectParameter& p : effect_parameters(kind, true)) {
+    for (const EffectParameter& p : effect_spec(kind)) {
       params += (params.empty() ? "" : ", ") + std::string(p.name) + " = " + detail::num(e.*p.member);
     }
     text += (text.empty() ? "" : "; ") + std::string(effect_name(kind)) + " (" + params + ")";
@@ -184,22 +491,105 @@ inline std::string effects_text(const Effects& e) {
 /// Throws alphainv::Error naming the field (prefix + member, e.g. "effects.coulomb_v") when a value
 /// is out of range.
 inline void validate_effects(const Effects& e, const std::string& prefix = "effects.") {
-  const std::string& p = prefix;
-  detail::require_nonnegative(p + "coulomb_v", e.coulomb_v);
-  if (e.coulomb_v > 0.0) detail::require_positive(p + "coulomb_smoothing_rad_s", e.coulomb_smoothing_rad_s);
-  detail::require_finite(p + "offset_v", e.offset_v);
-  detail::require_finite(p + "gravity_v", e.gravity_v);
-  detail::require_finite(p + "gravity_theta0_rad", e.gravity_theta0_rad);
-  detail::require_finite(p + "cogging_v", e.cogging_v);
-  if (e.cogging_v != 0.0) detail::require_positive(p + "cogging_period_rad", e.cogging_period_rad);
-  detail::require_finite(p + "cogging_phase_rad", e.cogging_phase_rad);
-  if (!std::isfinite(e.delay_s) || e.delay_s < 0.0 || e.delay_s > Effects::kMaxDelayS) {
-    detail::bad(p + "delay_s", "0 <= delay_s <= " + detail::num(Effects::kMaxDelayS) + " s", e.delay_s);
+  for (const EffectSpec& s : kEffectCatalogue) {
+    for (const EffectParameter& p : s) {
+      const std::string field = prefix + p.name;
+      const double x = e.*p.member;
+      switch (p.check) {
+        case ParameterCheck::kFinite: detail::require_finite(field, x); break;
+        case ParameterCheck::kNonNegative: detail::require_nonnegative(field, x); break;
+        case ParameterCheck::kPositiveIfActive:
+          if (s.active(e)) detail::require_positive(field, x);
+          break;
+        case ParameterCheck::kDelayRange:
+          if (!std::isfinite(x) || x < 0.0 || x > Effects::kMaxDelayS) {
+            detail::bad(field, "0 <= " + std::string(p.name) + " <= " + detail::num(Effects::kMaxDelayS) + " s", x);
+          }
+          break;
+        case ParameterCheck::kPositiveOrInfinity:
+          if (std::isnan(x) || !(x > 0.0)) detail::bad(field, "a limit > 0 (infinity: none)", x);
+          break;
+      }
+    }
   }
-  if (std::isnan(e.saturation_v) || !(e.saturation_v > 0.0)) {
-    detail::bad(p + "saturation_v", "a limit > 0 (infinity: none)", e.saturation_v);
+}
+
+/// Sets one effect from a command-line spec, the form `omni_fit fit --effect`, `omni_gen --effect`
+/// and `omni_ctl --sim-effect` take: "NAME:PARAM=VALUE[,PARAM=VALUE]" (model.json's parameter
+/// names, e.g. "coulomb_friction:coulomb_v=0.004"), or "NAME=VALUE" for the effect's first
+/// parameter (e.g. "deadzone=0.01"). The effect's other parameters take their defaults; the values
+/// are validated and must switch the effect on. Throws alphainv::Error naming `option` (default
+/// "--effect SPEC").
+inline void apply_effect_spec(const std::string& spec, Effects& effects, std::string option = {}) {
+  if (option.empty()) option = "--effect " + spec;
+  const std::size_t colon = spec.find(':');
+  const std::size_t eq = spec.find('=');
+  const bool short_form = colon == std::string::npos && eq != std::string::npos;
+  if (colon == std::string::npos && !short_form) {
+    throw Error("expected NAME:PARAM=VALUE[,PARAM=VALUE] or NAME=VALUE, e.g. "
+                "coulomb_friction:coulomb_v=0.004",
+                {}, 0, option);
   }
-  detail::require_nonnegative(p + "deadzone_v", e.deadzone_v);
+  const std::string name = spec.substr(0, short_form ? eq : colon);
+  const EffectKind kind = effect_kind_from_name(name, option);
+  const EffectSpec& es = effect_spec(kind);
+  if (kind == EffectKind::kNone) throw Error("\"none\" is not an effect", {}, 0, option);
+  std::string names;
+  for (const EffectParameter& p : es) names += std::string(names.empty() ? "" : ", ") + p.name;
+  Effects one;  // this effect's values on defaults: validate_effects can only object to them
+  std::string items = short_form ? std::string(es.parameters[0].name) + spec.substr(eq)
+                                 : spec.substr(colon + 1);
+  std::size_t start = 0;
+  bool any = false;
+  while (start <= items.size()) {
+    const std::size_t end = std::min(items.find(',', start), items.size());
+    const std::string item = items.substr(start, end - start);
+    const std::size_t item_eq = item.find('=');
+    const std::string key = item.substr(0, item_eq);
+    const EffectParameter* param = nullptr;
+    for (const EffectParameter& p : es) {
+      if (key == p.name) param = &p;
+    }
+    if (item_eq == std::string::npos || param == nullptr) {
+      throw Error("expected PARAM=VALUE with PARAM one of " + names + ", found \"" + item + "\"",
+                  {}, 0, option);
+    }
+    const std::string text = item.substr(item_eq + 1);
+    char* rest = nullptr;
+    const double x = std::strtod(text.c_str(), &rest);
+    if (text.empty() || rest == nullptr || *rest != '\0') {
+      throw Error("expected a number for " + key + ", found \"" + text + "\"", {}, 0, option);
+    }
+    one.*(param->member) = x;
+    any = true;
+    start = end + 1;
+  }
+  if (!any) throw Error("no parameter given", {}, 0, option);
+  validate_effects(one, "--effect " + name + ":");
+  if (!es.active(one)) {
+    throw Error("these values leave " + std::string(es.name) + " off", {}, 0, option);
+  }
+  for (const EffectParameter& p : es) effects.*(p.member) = one.*(p.member);
+}
+
+/// The spec apply_effect_spec reads back to the effect of `kind` in `e` (its parameters, modelling
+/// choices included, in the shortest form that reads back to the same double), e.g.
+/// "offset_torque:offset_v=0.0264075".
+inline std::string effect_spec_text(const Effects& e, EffectKind kind) {
+  const EffectSpec& es = effect_spec(kind);
+  std::string out = std::string(es.name) + ":";
+  bool first = true;
+  for (const EffectParameter& p : es) {
+    char buf[40];
+    const double x = e.*p.member;
+    for (int digits = 6; digits <= 17; ++digits) {  // the shortest %g form that reads back
+      std::snprintf(buf, sizeof buf, "%.*g", digits, x);
+      if (std::strtod(buf, nullptr) == x) break;
+    }
+    out += std::string(first ? "" : ",") + p.name + "=" + buf;
+    first = false;
+  }
+  return out;
 }
 
 }  // namespace alphainv

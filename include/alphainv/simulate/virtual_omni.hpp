@@ -54,9 +54,6 @@
 
 namespace alphainv {
 
-/// The plant's effects: the catalogue of effects.hpp (all off by default).
-using PlantEffects = Effects;
-
 /// Encoder effects on the measured angle.
 struct MeasurementEffects {
   double quantisation_rad = 0.0;  ///< encoder step q [rad], ≥ 0 (0: none); the Omni's is ~1.5e-4
@@ -79,7 +76,7 @@ struct VirtualOmniParams {
   /// The command before the first tick [command unit]: fills the delay line and sets the α filter's
   /// steady state.
   double initial_command_v = 0.0;
-  PlantEffects effects;            ///< disturbances and amplifier effects (all off by default)
+  Effects effects;            ///< disturbances and amplifier effects (all off by default)
   MeasurementEffects measurement;  ///< encoder quantisation and noise (off by default)
 
   /// Throws alphainv::Error naming the field (e.g. "effects.coulomb_v") when a value is out of
