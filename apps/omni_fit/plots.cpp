@@ -24,6 +24,7 @@
 #include "alphainv/identify/output_error.hpp"
 #include "alphainv/simulate/reference.hpp"
 #include "alphainv/simulate/simulate.hpp"
+#include "common/atomic_file.hpp"
 
 extern char** environ;
 
@@ -764,8 +765,11 @@ std::string draw(const std::string& gnuplot, const fs::path& dir_given, const st
   } else if (!has_png_signature(part)) {
     why = gnuplot + " wrote no PNG for " + id + ".gp: " + read_tail(log, 400);
   } else {
-    fs::rename(part, png, ec);
-    if (ec) why = "cannot rename " + part.string() + ": " + ec.message();
+    try {
+      common::commit_file(part, png);
+    } catch (const Error& e) {
+      why = e.what();
+    }
   }
   if (!why.empty()) {
     fs::remove(part, ec);
@@ -778,18 +782,7 @@ std::string draw(const std::string& gnuplot, const fs::path& dir_given, const st
 }  // namespace
 
 void write_text_atomic(const std::filesystem::path& path, const std::string& text) {
-  fs::path tmp = path;
-  tmp += ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw Error("cannot open for writing", tmp.string());
-    out << text;
-    if (!out.flush()) throw Error("write failed", tmp.string());
-  }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec)
-    throw Error("cannot rename to " + path.filename().string() + ": " + ec.message(), tmp.string());
+  common::write_file_atomically(path, text);
 }
 
 std::string gnuplot_preamble(const std::string& id, const std::string& caption, int width,

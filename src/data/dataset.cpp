@@ -4,13 +4,8 @@
 
 #include "alphainv/data/dataset.hpp"
 
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -22,6 +17,7 @@
 #include <utility>
 
 #include "alphainv/error.hpp"
+#include "common/atomic_file.hpp"
 
 namespace alphainv {
 namespace {
@@ -247,53 +243,6 @@ std::string read_file(const fs::path& path, std::uint64_t max_bytes) {
                 name);
   }
   return text;
-}
-
-/// Writes `content` to `target` atomically: a temporary file in the same folder, flushed to disk,
-/// then renamed over `target`. On failure the temporary file is removed and Error thrown.
-void write_file_atomically(const fs::path& target, std::string_view content) {
-  static std::atomic<unsigned long> counter{0};
-  const std::string name = target.string();
-  const fs::path tmp =
-      target.parent_path() / ("." + target.filename().string() + ".tmp." +
-                              std::to_string(::getpid()) + "." + std::to_string(counter++));
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
-  if (fd < 0) {
-    throw Error("cannot create temporary file " + tmp.string() + ": " + std::strerror(errno), name);
-  }
-  auto fail = [&](const std::string& what) {
-    const int err = errno;
-    ::close(fd);
-    ::unlink(tmp.c_str());
-    throw Error(what + ": " + std::strerror(err), name);
-  };
-  std::size_t written = 0;
-  while (written < content.size()) {
-    const ssize_t n = ::write(fd, content.data() + written, content.size() - written);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      fail("cannot write " + tmp.string());
-    }
-    written += static_cast<std::size_t>(n);
-  }
-  if (::fsync(fd) != 0) fail("cannot flush " + tmp.string() + " to disk");
-  if (::close(fd) != 0) {
-    const int err = errno;
-    ::unlink(tmp.c_str());
-    throw Error("cannot close " + tmp.string() + ": " + std::strerror(err), name);
-  }
-  if (::rename(tmp.c_str(), target.c_str()) != 0) {
-    const int err = errno;
-    ::unlink(tmp.c_str());
-    throw Error("cannot rename " + tmp.string() + " to the target: " + std::strerror(err), name);
-  }
-  // Make the rename itself durable (best effort: some file systems refuse fsync on folders).
-  const fs::path folder = target.parent_path().empty() ? fs::path(".") : target.parent_path();
-  const int dir_fd = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (dir_fd >= 0) {
-    (void)::fsync(dir_fd);
-    ::close(dir_fd);
-  }
 }
 
 // --- JSON reading
@@ -988,7 +937,7 @@ std::string format_dataset_index(const Dataset& ds) {
 }
 
 void write_run_csv(const fs::path& csv, const RunData& data) {
-  write_file_atomically(csv, format_run_csv(data, csv.string()));
+  common::write_file_atomically(csv, format_run_csv(data, csv.string()));
 }
 
 void write_dataset(const fs::path& dir, const Dataset& ds, const std::vector<RunData>& data) {
@@ -1023,9 +972,9 @@ void write_dataset(const fs::path& dir, const Dataset& ds, const std::vector<Run
       throw Error("cannot create the folder " + target.parent_path().string() + ": " + ec.message(),
                   target.string());
     }
-    write_file_atomically(target, format_run_csv(data[i], target.string()));
+    common::write_file_atomically(target, format_run_csv(data[i], target.string()));
   }
-  write_file_atomically(index, index_text);
+  common::write_file_atomically(index, index_text);
 }
 
 }  // namespace alphainv
