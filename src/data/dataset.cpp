@@ -18,6 +18,7 @@
 
 #include "alphainv/error.hpp"
 #include "common/atomic_file.hpp"
+#include "common/format.hpp"
 
 namespace alphainv {
 namespace {
@@ -66,19 +67,6 @@ std::string quote(std::string_view s) {
   if (s.size() > kMaxShown) out += "...";
   out += "'";
   return out;
-}
-
-/// Shortest text that reads back as exactly `x`.
-std::string format_double(double x) {
-  std::array<char, 32> buf{};
-  const auto res = std::to_chars(buf.data(), buf.data() + buf.size(), x);
-  return std::string(buf.data(), res.ptr);
-}
-
-void append_double(std::string& out, double x) {
-  std::array<char, 32> buf{};
-  const auto res = std::to_chars(buf.data(), buf.data() + buf.size(), x);
-  out.append(buf.data(), res.ptr);
 }
 
 bool is_blank_char(char c) { return c == ' ' || c == '\t'; }
@@ -382,7 +370,7 @@ class IndexReader {
                                           const std::string& parent) const {
     const auto x = optional_number(object, key, parent);
     if (x && !(*x > 0.0)) {
-      fail("expected a number greater than 0, found " + format_double(*x), path(parent, key));
+      fail("expected a number greater than 0, found " + common::shortest(*x), path(parent, key));
     }
     return x;
   }
@@ -430,7 +418,7 @@ class IndexReader {
         const std::string key = path(parent, "v_limit");
         const double x = number(*it, key);
         if (!(x > 0.0))
-          fail("expected null or a number greater than 0, found " + format_double(x), key);
+          fail("expected null or a number greater than 0, found " + common::shortest(x), key);
         c.v_limit = x;
       }
     }
@@ -444,8 +432,8 @@ class IndexReader {
     if (auto kp = optional_number(object, "kp", parent)) {
       const json* inner = controller != nullptr ? find(*controller, "kp") : nullptr;
       if (inner != nullptr && inner->is_number() && inner->get<double>() != *kp) {
-        fail("the shorthand kp = " + format_double(*kp) +
-                 " contradicts controller.kp = " + format_double(inner->get<double>()),
+        fail("the shorthand kp = " + common::shortest(*kp) +
+                 " contradicts controller.kp = " + common::shortest(inner->get<double>()),
              path(parent, "kp"));
       }
       c.kp = *kp;
@@ -534,7 +522,7 @@ void validate_run_data(const RunData& data, const std::string& file) {
     }
     for (std::size_t k = 0; k < n; ++k) {
       if (!std::isfinite(values[k])) {
-        throw Error("expected finite values, found " + format_double(values[k]) + " at index " +
+        throw Error("expected finite values, found " + common::shortest(values[k]) + " at index " +
                         std::to_string(k),
                     file, 0, name);
       }
@@ -546,8 +534,8 @@ void validate_run_data(const RunData& data, const std::string& file) {
   check_column("v", data.v);
   for (std::size_t k = 1; k < n; ++k) {
     if (!(data.t[k] > data.t[k - 1])) {
-      throw Error("expected strictly increasing times, found " + format_double(data.t[k]) +
-                      " at index " + std::to_string(k) + " after " + format_double(data.t[k - 1]),
+      throw Error("expected strictly increasing times, found " + common::shortest(data.t[k]) +
+                      " at index " + std::to_string(k) + " after " + common::shortest(data.t[k - 1]),
                   file, 0, "t");
     }
   }
@@ -707,8 +695,8 @@ RunData parse_run_csv(std::string_view text, const std::string& name, const Read
     });
     const std::vector<double>& t = values[t_col];
     if (rows > 0 && !(t[rows] > t[rows - 1])) {
-      throw Error("expected t strictly increasing, found " + format_double(t[rows]) + " after " +
-                      format_double(t[rows - 1]) + " on line " + std::to_string(previous_line),
+      throw Error("expected t strictly increasing, found " + common::shortest(t[rows]) + " after " +
+                      common::shortest(t[rows - 1]) + " on line " + std::to_string(previous_line),
                   name, line_no, "t");
     }
     previous_line = line_no;
@@ -832,7 +820,7 @@ std::string format_run_csv(const RunData& data, const std::string& name) {
   for (std::size_t k = 0; k < n; ++k) {
     for (std::size_t j = 0; j < columns.size(); ++j) {
       if (j > 0) out += ',';
-      append_double(out, (*columns[j])[k]);
+      common::append_shortest(out, (*columns[j])[k]);
     }
     out += '\n';
   }

@@ -16,6 +16,7 @@
 #include "alphainv/identify/output_error.hpp"
 #include "alphainv/simulate/reference.hpp"
 #include "alphainv/identify/time_domain_fit.hpp"
+#include "common/format.hpp"
 #include "common/parallel_for.hpp"
 
 namespace alphainv {
@@ -33,11 +34,8 @@ constexpr double kSearchPruneRatio = 4.0;
 
 using common::parallel_for;
 
-std::string num(double x, const char* f = "%.3g") {
-  char b[64];
-  std::snprintf(b, sizeof b, f, x);
-  return b;
-}
+/// A number in a finding: printf format `f`, by default 3 significant digits.
+std::string num(double x, const char* f = "%.3g") { return common::format(f, x); }
 
 SimulationResult simulate_run(const DiagnoseRun& run, const JointModelAtPose& m,
                               const SimulationOptions& so) {
