@@ -1,7 +1,8 @@
 cmake_minimum_required(VERSION 3.22)
 # ctest `layering`: every #include "alphainv/<component>/..." in include/alphainv/<c>/ and
 # src/<c>/ must name a component <c> may use (docs/architecture.md):
-#   model, rt (core) <- data <- simulate <- identify <- diagnose;  device uses core, data, simulate.
+#   model, rt (core) <- data <- simulate <- identify <- diagnose;  device uses core, data, simulate;
+#   common (src/common, private plumbing) uses model and rt only, and no public header includes it.
 # Run: cmake -DSOURCE_DIR=<repo> -P cmake/check_layering.cmake
 set(allowed_model model rt)
 set(allowed_rt model rt)
@@ -30,6 +31,15 @@ foreach(component model rt data simulate identify diagnose device common)
         string(APPEND violations "  ${rel}: ${line} (not a component header)\n")
       endif()
     endforeach()
+  endforeach()
+endforeach()
+# src/common is private plumbing (not installed): no public header may include it.
+file(GLOB_RECURSE public_headers ${SOURCE_DIR}/include/alphainv/*.hpp)
+foreach(f ${public_headers})
+  file(STRINGS ${f} lines REGEX "^#include \"common/")
+  foreach(line ${lines})
+    file(RELATIVE_PATH rel ${SOURCE_DIR} ${f})
+    string(APPEND violations "  ${rel}: ${line} (src/common is private: not for public headers)\n")
   endforeach()
 endforeach()
 if(violations)

@@ -8,7 +8,6 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
-#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
@@ -24,6 +23,8 @@
 #include "alphainv/identify/output_error.hpp"
 #include "alphainv/simulate/reference.hpp"
 #include "alphainv/simulate/simulate.hpp"
+#include "common/atomic_file.hpp"
+#include "common/format.hpp"
 
 extern char** environ;
 
@@ -36,19 +37,9 @@ namespace fs = std::filesystem;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-/// A number in a .dat file: %.10g, "NaN" (declared missing in every script) when not finite.
-std::string num(double x) {
-  if (!std::isfinite(x)) return "NaN";
-  char b[40];
-  std::snprintf(b, sizeof b, "%.10g", x);
-  return b;
-}
-
-std::string fixed(double x, const char* f = "%.2f") {
-  char b[40];
-  std::snprintf(b, sizeof b, f, x);
-  return b;
-}
+/// A number in a .dat file: 10 significant digits, "NaN" (declared missing in every script) when
+/// not finite.
+std::string dat_num(double x) { return std::isfinite(x) ? common::sig(x, 10) : "NaN"; }
 
 /// A gnuplot single-quoted string: a quote is written twice, nothing else is special.
 std::string gp_quote(std::string_view s) {
@@ -70,13 +61,15 @@ struct Units {
 /// The pose as a panel or series title (enhanced text).
 std::string pose_title(const PoseFit& p) {
   if (!p.gamma1_deg || !p.gamma2_deg) return "all runs (no pose)";
-  return "γ_1 = " + fixed(*p.gamma1_deg) + "°, γ_2 = " + fixed(*p.gamma2_deg) + "°";
+  return "γ_1 = " + common::fixed(*p.gamma1_deg, 2) + "°, γ_2 = " +
+         common::fixed(*p.gamma2_deg, 2) + "°";
 }
 
 /// The pose in Markdown.
 std::string pose_md(const PoseFit& p) {
   if (!p.gamma1_deg || !p.gamma2_deg) return "all runs (no pose)";
-  return "γ1 = " + fixed(*p.gamma1_deg) + "°, γ2 = " + fixed(*p.gamma2_deg) + "°";
+  return "γ1 = " + common::fixed(*p.gamma1_deg, 2) + "°, γ2 = " + common::fixed(*p.gamma2_deg, 2) +
+         "°";
 }
 
 bool is_step(const RunInfo& r) { return r.kind == "square" || r.kind == "step"; }
@@ -218,14 +211,16 @@ class Plotter {
         << "]  gamma1 [deg]  gamma2 [deg]\n";
       for (std::size_t p : ps) {
         const PoseFit& pose = fit_.poses[p];
-        d << num(pose.inertia) << " " << num(pose.linear.c_linear) << " "
-          << num(pose.linear.beta_tilde_linear) << " " << num(*pose.gamma1_deg) << " "
-          << num(*pose.gamma2_deg) << "\n";
+        d << dat_num(pose.inertia) << " " << dat_num(pose.linear.c_linear) << " "
+          << dat_num(pose.linear.beta_tilde_linear) << " " << dat_num(*pose.gamma1_deg) << " "
+          << dat_num(*pose.gamma2_deg) << "\n";
       }
       d << "\n\n# index 1: inertia model: I  C = 1/(C0_bar I) (29)  beta_tilde = 1/I (28)\n";
-      for (double i : grid)
-        d << num(i) << " " << num(lin.damping(i)) << " " << num(lin.beta_tilde(i)) << "\n";
-      const std::string c0 = fixed(lin.c0_bar, "%.4g");
+      for (double i : grid) {
+        d << dat_num(i) << " " << dat_num(lin.damping(i)) << " " << dat_num(lin.beta_tilde(i))
+          << "\n";
+      }
+      const std::string c0 = common::sig(lin.c0_bar, 4);
       Draft f4{
           "fig04_c_linear_inertia",
           "Fig 4: global linear damping C_linear (eq. 22) per pose against the pose's inertia, "
@@ -277,19 +272,19 @@ class Plotter {
     for (std::size_t k = 0; k < n; ++k) d << "  C_" << k << " [1/s]";
     d << "  beta_tilde_0  beta_tilde_1 [" << u_.beta_tilde() << "]\n";
     for (std::size_t j = 0; j < stage1_pose.size(); ++j) {
-      d << num(fit_.poses[stage1_pose[j]].inertia);
-      for (std::size_t k = 0; k < n; ++k) d << " " << num(fit_.alpha.pose_c[j][k]);
-      d << " " << num(fit_.alpha.pose_beta_tilde[j][0]) << " "
-        << num(fit_.alpha.pose_beta_tilde[j][1]) << "\n";
+      d << dat_num(fit_.poses[stage1_pose[j]].inertia);
+      for (std::size_t k = 0; k < n; ++k) d << " " << dat_num(fit_.alpha.pose_c[j][k]);
+      d << " " << dat_num(fit_.alpha.pose_beta_tilde[j][0]) << " "
+        << dat_num(fit_.alpha.pose_beta_tilde[j][1]) << "\n";
     }
     d << "\n\n# index 1: models: I";
     for (std::size_t k = 0; k < n; ++k) d << "  1/(C_" << k << "1 I)";
     d << "  1/(beta_01 I)  1/(beta_11 I)  C_linear(I)  beta_tilde_linear(I)\n";
     for (double i : grid) {
-      d << num(i);
-      for (std::size_t k = 0; k < n; ++k) d << " " << num(1.0 / (a.c_n1[k] * i));
-      d << " " << num(1.0 / (a.beta_n1[0] * i)) << " " << num(1.0 / (a.beta_n1[1] * i)) << " "
-        << num(lin.damping(i)) << " " << num(lin.beta_tilde(i)) << "\n";
+      d << dat_num(i);
+      for (std::size_t k = 0; k < n; ++k) d << " " << dat_num(1.0 / (a.c_n1[k] * i));
+      d << " " << dat_num(1.0 / (a.beta_n1[0] * i)) << " " << dat_num(1.0 / (a.beta_n1[1] * i))
+        << " " << dat_num(lin.damping(i)) << " " << dat_num(lin.beta_tilde(i)) << "\n";
     }
     const char* colours[] = {"#cc2222", "#e07b00", "#2a9d2a", "#7b3fb5",
                              "#008b8b", "#b5007b", "#666600", "#444444"};
@@ -306,7 +301,7 @@ class Plotter {
       for (std::size_t k = 0; k < n; ++k) {
         const std::string c = colours[k % 8];
         g << "'" << f.id << ".dat' index 1 using 1:" << k + 2 << " with lines lc rgb '" << c
-          << "' lw 1.5 title 'C_" << k << ", α_" << k << " = " << fixed(a.alpha[k], "%.3g") << " "
+          << "' lw 1.5 title 'C_" << k << ", α_" << k << " = " << common::sig(a.alpha[k], 3) << " "
           << u_.alpha() << "', \\\n     '' index 0 using 1:" << k + 2 << " with points lc rgb '"
           << c << "' pt 7 ps 0.8 notitle, \\\n     ";
       }
@@ -327,7 +322,7 @@ class Plotter {
       for (std::size_t k = 0; k < 2; ++k) {
         const std::string c = colours[k == 0 ? 0 : 3];
         g << "'" << f.id << ".dat' index 1 using 1:" << n + 2 + k << " with lines lc rgb '" << c
-          << "' lw 1.5 title 'β̃_" << k << ", ᾱ_" << k << " = " << fixed(a.beta_alpha[k], "%.3g")
+          << "' lw 1.5 title 'β̃_" << k << ", ᾱ_" << k << " = " << common::sig(a.beta_alpha[k], 3)
           << " " << u_.alpha() << "', \\\n     '' index 0 using 1:" << n + 2 + k
           << " with points lc rgb '" << c << "' pt 7 ps 0.8 notitle, \\\n     ";
       }
@@ -363,7 +358,7 @@ class Plotter {
       d << "# index " << block << ": " << pose_md(fit_.poses[p]) << ": freq [Hz]  alpha_data ["
         << u_.alpha() << "]  physical (1/0)\n";
       for (const auto* sp : pts) {
-        d << num(sp->point.freq_hz) << " " << num(sp->point.alpha_data) << " "
+        d << dat_num(sp->point.freq_hz) << " " << dat_num(sp->point.alpha_data) << " "
           << (sp->point.physical ? 1 : 0) << "\n";
       }
       g << (block > 0 ? ", \\\n     '' " : "'" + f.id + ".dat' ") << "index " << block
@@ -416,18 +411,18 @@ class Plotter {
         << "]  freq [Hz]\n";
       for (const auto* sp : points_of(p)) {
         if (!sp->point.physical || !(sp->point.alpha_data > 0.0)) continue;
-        d << num(sp->point.alpha_data) << " " << num(sp->point.c_data) << " "
-          << num(sp->point.beta_data / kp) << " " << num(sp->point.freq_hz) << "\n";
+        d << dat_num(sp->point.alpha_data) << " " << dat_num(sp->point.c_data) << " "
+          << dat_num(sp->point.beta_data / kp) << " " << dat_num(sp->point.freq_hz) << "\n";
       }
-      d << "\n\n# index " << block + 1 << ": " << pose_md(pose) << ", I = " << num(pose.inertia)
+      d << "\n\n# index " << block + 1 << ": " << pose_md(pose) << ", I = " << dat_num(pose.inertia)
         << ": alpha  C(alpha, I) (38-40)  beta_tilde(alpha, I) (41-42)  C_linear  "
            "beta_tilde_linear (22)\n";
       for (double a : grid) {
-        d << num(a) << " "
-          << (fit_.alpha.ok ? num(fit_.alpha.model.damping(a, pose.inertia)) : "NaN") << " "
-          << (fit_.alpha.ok ? num(fit_.alpha.model.beta_tilde(a, pose.inertia)) : "NaN") << " "
-          << (pose.linear.valid ? num(pose.linear.c_linear) : "NaN") << " "
-          << (pose.linear.valid ? num(pose.linear.beta_tilde_linear) : "NaN") << "\n";
+        d << dat_num(a) << " "
+          << (fit_.alpha.ok ? dat_num(fit_.alpha.model.damping(a, pose.inertia)) : "NaN") << " "
+          << (fit_.alpha.ok ? dat_num(fit_.alpha.model.beta_tilde(a, pose.inertia)) : "NaN") << " "
+          << (pose.linear.valid ? dat_num(pose.linear.c_linear) : "NaN") << " "
+          << (pose.linear.valid ? dat_num(pose.linear.beta_tilde_linear) : "NaN") << "\n";
       }
       block += 2;
     }
@@ -512,8 +507,9 @@ class Plotter {
            "along "
            "frequency; NaN: not simulated)\n";
       for (std::size_t k = 0; k < f_hz.size(); ++k) {
-        d << num(f_hz[k]) << " " << num(gm[k]) << " " << num(pm[k]) << " " << num(gl[k]) << " "
-          << num(pl[k]) << " " << num(ga[k]) << " " << num(pa[k]) << "\n";
+        d << dat_num(f_hz[k]) << " " << dat_num(gm[k]) << " " << dat_num(pm[k]) << " "
+          << dat_num(gl[k]) << " " << dat_num(pl[k]) << " " << dat_num(ga[k]) << " "
+          << dat_num(pa[k]) << "\n";
       }
       f.dat = d.str();
       std::ostringstream g;
@@ -583,8 +579,8 @@ class Plotter {
     s << "# " << ds_.runs[i].file << ": t [s]  r [" << u_.pos << "]  theta_measured  theta_linear  "
       << "theta_alpha [" << u_.pos << "]\n";
     for (std::size_t k = k0; k < k1; ++k) {
-      s << num(d.t[k]) << " " << num(d.r[k]) << " " << num(d.theta[k]) << " " << num(lin[k]) << " "
-        << num(alp[k]) << "\n";
+      s << dat_num(d.t[k]) << " " << dat_num(d.r[k]) << " " << dat_num(d.theta[k]) << " "
+        << dat_num(lin[k]) << " " << dat_num(alp[k]) << "\n";
     }
     f.dat = s.str();
     std::ostringstream g;
@@ -642,7 +638,7 @@ class Plotter {
       drafts.push_back(time_draft(
           sine->run, k0, d.size(), lin, alp, "fig13_time_sine",
           "Fig 13: the last three periods of " + ds_.runs[sine->run].file + " (" +
-              fixed(sine->point.freq_hz, "%.3g") + " Hz, " + pose_md(fit_.poses[sine->pose]) +
+              common::sig(sine->point.freq_hz, 3) + " Hz, " + pose_md(fit_.poses[sine->pose]) +
               "), measured θ vs the linear and the α-model simulated from the run's start"));
     }
     // Fig 14: a square/step run at that pose (else the first one with a model), around its first
@@ -686,7 +682,7 @@ class Plotter {
         step, k0, k1, lin, alp, "fig14_time_step",
         "Fig 14: " + ds_.runs[step].file + " (" + pose_md(fit_.poses[run_pose_.at(step)]) +
             ") around its " +
-            (edge > 0 ? "first jump of the reference, at t = " + fixed(t_edge, "%.3g") + " s"
+            (edge > 0 ? "first jump of the reference, at t = " + common::sig(t_edge, 3) + " s"
                       : "start") +
             ": measured θ vs the linear and the α-model simulated from the run's start"));
   }
@@ -764,8 +760,11 @@ std::string draw(const std::string& gnuplot, const fs::path& dir_given, const st
   } else if (!has_png_signature(part)) {
     why = gnuplot + " wrote no PNG for " + id + ".gp: " + read_tail(log, 400);
   } else {
-    fs::rename(part, png, ec);
-    if (ec) why = "cannot rename " + part.string() + ": " + ec.message();
+    try {
+      common::commit_file(part, png);
+    } catch (const Error& e) {
+      why = e.what();
+    }
   }
   if (!why.empty()) {
     fs::remove(part, ec);
@@ -778,18 +777,7 @@ std::string draw(const std::string& gnuplot, const fs::path& dir_given, const st
 }  // namespace
 
 void write_text_atomic(const std::filesystem::path& path, const std::string& text) {
-  fs::path tmp = path;
-  tmp += ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw Error("cannot open for writing", tmp.string());
-    out << text;
-    if (!out.flush()) throw Error("write failed", tmp.string());
-  }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec)
-    throw Error("cannot rename to " + path.filename().string() + ": " + ec.message(), tmp.string());
+  common::write_file_atomically(path, text);
 }
 
 std::string gnuplot_preamble(const std::string& id, const std::string& caption, int width,

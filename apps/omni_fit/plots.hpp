@@ -81,8 +81,9 @@ std::string gnuplot_quote(std::string_view s);
 std::string draw_gnuplot_figure(const std::string& gnuplot, const std::filesystem::path& dir,
                                 const std::string& id);
 
-/// Writes `text` to `path` through a temporary name in the same folder and a rename, so a reader
-/// sees the old file or the whole new one. Throws alphainv::Error naming the file.
+/// Writes `text` to `path` through a temporary name in the same folder, fsync'ed and renamed (the
+/// folder fsync'ed too), so a reader sees the old file or the whole new one, also after a crash.
+/// Throws alphainv::Error naming the file (src/common/atomic_file.hpp, the library's writer).
 void write_text_atomic(const std::filesystem::path& path, const std::string& text);
 
 }  // namespace omni_fit

@@ -8,6 +8,7 @@
 #include "alphainv/error.hpp"
 #include "alphainv/data/model_file.hpp"
 #include "alphainv/simulate/model_simulation.hpp"
+#include "common/format.hpp"
 
 namespace omni_fit {
 
@@ -156,7 +157,7 @@ int run_simulate(const SimulateCommandOptions& o) {
         note.c_str(), run.info.kind.c_str(), run_opt.freq_hz, run_opt.amplitude_rad,
         run_opt.duration_s, run_opt.sample_rate_hz, run.data.size(), run.controller.kp,
         model.loop_period_s > 0.0
-            ? ("digital loop at " + std::to_string(1.0 / model.loop_period_s) + " Hz").c_str()
+            ? ("digital loop at " + common::num(1.0 / model.loop_period_s) + " Hz").c_str()
             : "continuous control law (43)",
         wrote.c_str());
     if (!active_effects(model.effects).empty()) {

@@ -4,13 +4,8 @@
 
 #include "alphainv/data/dataset.hpp"
 
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -22,6 +17,8 @@
 #include <utility>
 
 #include "alphainv/error.hpp"
+#include "common/atomic_file.hpp"
+#include "common/format.hpp"
 
 namespace alphainv {
 namespace {
@@ -70,19 +67,6 @@ std::string quote(std::string_view s) {
   if (s.size() > kMaxShown) out += "...";
   out += "'";
   return out;
-}
-
-/// Shortest text that reads back as exactly `x`.
-std::string format_double(double x) {
-  std::array<char, 32> buf{};
-  const auto res = std::to_chars(buf.data(), buf.data() + buf.size(), x);
-  return std::string(buf.data(), res.ptr);
-}
-
-void append_double(std::string& out, double x) {
-  std::array<char, 32> buf{};
-  const auto res = std::to_chars(buf.data(), buf.data() + buf.size(), x);
-  out.append(buf.data(), res.ptr);
 }
 
 bool is_blank_char(char c) { return c == ' ' || c == '\t'; }
@@ -249,53 +233,6 @@ std::string read_file(const fs::path& path, std::uint64_t max_bytes) {
   return text;
 }
 
-/// Writes `content` to `target` atomically: a temporary file in the same folder, flushed to disk,
-/// then renamed over `target`. On failure the temporary file is removed and Error thrown.
-void write_file_atomically(const fs::path& target, std::string_view content) {
-  static std::atomic<unsigned long> counter{0};
-  const std::string name = target.string();
-  const fs::path tmp =
-      target.parent_path() / ("." + target.filename().string() + ".tmp." +
-                              std::to_string(::getpid()) + "." + std::to_string(counter++));
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
-  if (fd < 0) {
-    throw Error("cannot create temporary file " + tmp.string() + ": " + std::strerror(errno), name);
-  }
-  auto fail = [&](const std::string& what) {
-    const int err = errno;
-    ::close(fd);
-    ::unlink(tmp.c_str());
-    throw Error(what + ": " + std::strerror(err), name);
-  };
-  std::size_t written = 0;
-  while (written < content.size()) {
-    const ssize_t n = ::write(fd, content.data() + written, content.size() - written);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      fail("cannot write " + tmp.string());
-    }
-    written += static_cast<std::size_t>(n);
-  }
-  if (::fsync(fd) != 0) fail("cannot flush " + tmp.string() + " to disk");
-  if (::close(fd) != 0) {
-    const int err = errno;
-    ::unlink(tmp.c_str());
-    throw Error("cannot close " + tmp.string() + ": " + std::strerror(err), name);
-  }
-  if (::rename(tmp.c_str(), target.c_str()) != 0) {
-    const int err = errno;
-    ::unlink(tmp.c_str());
-    throw Error("cannot rename " + tmp.string() + " to the target: " + std::strerror(err), name);
-  }
-  // Make the rename itself durable (best effort: some file systems refuse fsync on folders).
-  const fs::path folder = target.parent_path().empty() ? fs::path(".") : target.parent_path();
-  const int dir_fd = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (dir_fd >= 0) {
-    (void)::fsync(dir_fd);
-    ::close(dir_fd);
-  }
-}
-
 // --- JSON reading
 // -----------------------------------------------------------------------------------
 
@@ -433,7 +370,7 @@ class IndexReader {
                                           const std::string& parent) const {
     const auto x = optional_number(object, key, parent);
     if (x && !(*x > 0.0)) {
-      fail("expected a number greater than 0, found " + format_double(*x), path(parent, key));
+      fail("expected a number greater than 0, found " + common::shortest(*x), path(parent, key));
     }
     return x;
   }
@@ -481,7 +418,7 @@ class IndexReader {
         const std::string key = path(parent, "v_limit");
         const double x = number(*it, key);
         if (!(x > 0.0))
-          fail("expected null or a number greater than 0, found " + format_double(x), key);
+          fail("expected null or a number greater than 0, found " + common::shortest(x), key);
         c.v_limit = x;
       }
     }
@@ -495,8 +432,8 @@ class IndexReader {
     if (auto kp = optional_number(object, "kp", parent)) {
       const json* inner = controller != nullptr ? find(*controller, "kp") : nullptr;
       if (inner != nullptr && inner->is_number() && inner->get<double>() != *kp) {
-        fail("the shorthand kp = " + format_double(*kp) +
-                 " contradicts controller.kp = " + format_double(inner->get<double>()),
+        fail("the shorthand kp = " + common::shortest(*kp) +
+                 " contradicts controller.kp = " + common::shortest(inner->get<double>()),
              path(parent, "kp"));
       }
       c.kp = *kp;
@@ -585,7 +522,7 @@ void validate_run_data(const RunData& data, const std::string& file) {
     }
     for (std::size_t k = 0; k < n; ++k) {
       if (!std::isfinite(values[k])) {
-        throw Error("expected finite values, found " + format_double(values[k]) + " at index " +
+        throw Error("expected finite values, found " + common::shortest(values[k]) + " at index " +
                         std::to_string(k),
                     file, 0, name);
       }
@@ -597,8 +534,8 @@ void validate_run_data(const RunData& data, const std::string& file) {
   check_column("v", data.v);
   for (std::size_t k = 1; k < n; ++k) {
     if (!(data.t[k] > data.t[k - 1])) {
-      throw Error("expected strictly increasing times, found " + format_double(data.t[k]) +
-                      " at index " + std::to_string(k) + " after " + format_double(data.t[k - 1]),
+      throw Error("expected strictly increasing times, found " + common::shortest(data.t[k]) +
+                      " at index " + std::to_string(k) + " after " + common::shortest(data.t[k - 1]),
                   file, 0, "t");
     }
   }
@@ -758,8 +695,8 @@ RunData parse_run_csv(std::string_view text, const std::string& name, const Read
     });
     const std::vector<double>& t = values[t_col];
     if (rows > 0 && !(t[rows] > t[rows - 1])) {
-      throw Error("expected t strictly increasing, found " + format_double(t[rows]) + " after " +
-                      format_double(t[rows - 1]) + " on line " + std::to_string(previous_line),
+      throw Error("expected t strictly increasing, found " + common::shortest(t[rows]) + " after " +
+                      common::shortest(t[rows - 1]) + " on line " + std::to_string(previous_line),
                   name, line_no, "t");
     }
     previous_line = line_no;
@@ -883,7 +820,7 @@ std::string format_run_csv(const RunData& data, const std::string& name) {
   for (std::size_t k = 0; k < n; ++k) {
     for (std::size_t j = 0; j < columns.size(); ++j) {
       if (j > 0) out += ',';
-      append_double(out, (*columns[j])[k]);
+      common::append_shortest(out, (*columns[j])[k]);
     }
     out += '\n';
   }
@@ -988,7 +925,7 @@ std::string format_dataset_index(const Dataset& ds) {
 }
 
 void write_run_csv(const fs::path& csv, const RunData& data) {
-  write_file_atomically(csv, format_run_csv(data, csv.string()));
+  common::write_file_atomically(csv, format_run_csv(data, csv.string()));
 }
 
 void write_dataset(const fs::path& dir, const Dataset& ds, const std::vector<RunData>& data) {
@@ -1023,9 +960,9 @@ void write_dataset(const fs::path& dir, const Dataset& ds, const std::vector<Run
       throw Error("cannot create the folder " + target.parent_path().string() + ": " + ec.message(),
                   target.string());
     }
-    write_file_atomically(target, format_run_csv(data[i], target.string()));
+    common::write_file_atomically(target, format_run_csv(data[i], target.string()));
   }
-  write_file_atomically(index, index_text);
+  common::write_file_atomically(index, index_text);
 }
 
 }  // namespace alphainv

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "alphainv/error.hpp"
+#include "common/atomic_file.hpp"
 
 namespace alphainv {
 
@@ -296,22 +297,7 @@ ModelFile parse_model_file(const std::string& text, const std::string& file) {
 }
 
 void write_model_file(const std::filesystem::path& path, const ModelFile& model) {
-  const std::string text = format_model_file(model);
-  std::filesystem::path tmp = path;
-  tmp += ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw Error("cannot open for writing", tmp.string());
-    out << text;
-    out.flush();
-    if (!out) throw Error("write failed", tmp.string());
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::filesystem::remove(tmp, ec);
-    throw Error("cannot rename the temporary file into place", path.string());
-  }
+  common::write_file_atomically(path, format_model_file(model));
 }
 
 ModelFile read_model_file(const std::filesystem::path& path) {

@@ -16,6 +16,8 @@
 #include "alphainv/identify/output_error.hpp"
 #include "alphainv/simulate/reference.hpp"
 #include "alphainv/identify/time_domain_fit.hpp"
+#include "common/format.hpp"
+#include "common/parallel_for.hpp"
 
 namespace alphainv {
 
@@ -30,30 +32,10 @@ constexpr std::size_t kAlphaVariants = 8;
 /// fitted by output error (diagnose()).
 constexpr double kSearchPruneRatio = 4.0;
 
-unsigned thread_count(unsigned requested, std::size_t jobs) {
-  const unsigned hw = std::max(1u, std::thread::hardware_concurrency());
-  const unsigned n = requested ? requested : hw;
-  return std::max(1u, std::min<unsigned>(n, static_cast<unsigned>(std::max<std::size_t>(jobs, 1))));
-}
+using common::parallel_for;
 
-/// Runs f(i) for i in [0, n) on `threads` threads.
-void parallel_for(std::size_t n, unsigned threads, const std::function<void(std::size_t)>& f) {
-  std::atomic<std::size_t> next{0};
-  auto worker = [&] {
-    for (std::size_t i = next++; i < n; i = next++) f(i);
-  };
-  const unsigned t = thread_count(threads, n);
-  std::vector<std::thread> pool;
-  for (unsigned k = 1; k < t; ++k) pool.emplace_back(worker);
-  worker();
-  for (auto& th : pool) th.join();
-}
-
-std::string num(double x, const char* f = "%.3g") {
-  char b[64];
-  std::snprintf(b, sizeof b, f, x);
-  return b;
-}
+/// A number in a finding: printf format `f`, by default 3 significant digits.
+std::string num(double x, const char* f = "%.3g") { return common::format(f, x); }
 
 SimulationResult simulate_run(const DiagnoseRun& run, const JointModelAtPose& m,
                               const SimulationOptions& so) {

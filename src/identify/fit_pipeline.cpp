@@ -7,12 +7,12 @@
 #include <limits>
 #include <map>
 #include <mutex>
-#include <thread>
 
 #include "alphainv/identify/effect_sine_point.hpp"
 #include "alphainv/identify/metrics.hpp"
 #include "alphainv/identify/output_error.hpp"
 #include "alphainv/simulate/reference.hpp"
+#include "common/parallel_for.hpp"
 #include "fit_pipeline_internal.hpp"
 
 namespace alphainv {
@@ -531,15 +531,11 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
   // --- validation: every run simulated with both models under its own controller ----------------
   if (options.validate) {
     fit.validation.resize(n_runs);
-    const unsigned hw = std::max(1u, std::thread::hardware_concurrency());
-    const unsigned n_threads = std::max(1u, std::min<unsigned>(options.threads ? options.threads : hw,
-                                                               static_cast<unsigned>(n_runs)));
-    std::atomic<std::size_t> next{0}, done{0};
+    std::atomic<std::size_t> done{0};
     progress("validation simulations", 0, n_runs);
-    auto worker = [&]() {
-      // The increment reports each finished run, also those left by `continue`.
-      for (std::size_t i = next++; i < n_runs; progress("validation simulations", ++done, n_runs),
-                       i = next++) {
+    common::parallel_for(n_runs, options.threads, [&](std::size_t i) {
+      // One pass; `continue` leaves it early, and every run is reported after it.
+      do {
         RunValidation& rv = fit.validation[i];
         rv.run = i;
         const RunInfo& run = dataset.runs[i];
@@ -591,12 +587,9 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
         };
         compare(lin, rv.linear);
         compare(alp, rv.alpha);
-      }
-    };
-    std::vector<std::thread> pool;
-    for (unsigned k = 1; k < n_threads; ++k) pool.emplace_back(worker);
-    worker();
-    for (auto& th : pool) th.join();
+      } while (false);
+      progress("validation simulations", ++done, n_runs);
+    });
 
     // Per pose: Table 8 (90th percentile over the sweep) and Table 11 (median, p90 of |error|);
     // then the median of each figure over the poses.

@@ -12,29 +12,20 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstdio>
 #include <limits>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "alphainv/identify/detail/inertia_fit_residual.hpp"
+#include "common/format.hpp"
 
 namespace alphainv {
 namespace {
 
 constexpr int kNumParams = kInertiaFitParameterCount;
 
-/// printf into a std::string.
-template <typename... Args>
-std::string format(const char* fmt, Args... args) {
-  const int n = std::snprintf(nullptr, 0, fmt, args...);
-  if (n <= 0) return {};
-  std::string out(static_cast<std::size_t>(n) + 1, '\0');
-  std::snprintf(out.data(), out.size(), fmt, args...);
-  out.resize(static_cast<std::size_t>(n));
-  return out;
-}
+using common::format;  // printf into a std::string
 
 /// Scales s of the internal parameters p (θ = s ⊙ p): s = (s_I, s_I, s_I, s_I, 1, s_C).
 std::array<double, kNumParams> parameter_scales(double inertia_scale, double c0_bar_scale) {

@@ -4,22 +4,16 @@
 #include <atomic>
 #include <cmath>
 #include <memory>
-#include <thread>
 
 #include <Eigen/Dense>
 #include <ceres/ceres.h>
 
 #include "alphainv/simulate/reference.hpp"
+#include "common/parallel_for.hpp"
 
 namespace alphainv {
 
 namespace {
-
-unsigned thread_count(unsigned requested, std::size_t jobs) {
-  const unsigned hw = std::max(1u, std::thread::hardware_concurrency());
-  const unsigned n = requested ? requested : hw;
-  return std::max(1u, std::min<unsigned>(n, static_cast<unsigned>(std::max<std::size_t>(jobs, 1))));
-}
 
 /// Indices of the residual samples of a run: evenly spaced, at most `max_n`, never sample 0 (the
 /// initial state is taken from it).
@@ -65,25 +59,16 @@ class RunCost final : public ceres::CostFunction {
     std::vector<std::vector<double>> plus(np, std::vector<double>(m)), minus(plus);
     std::vector<double> step_hi(np), step_lo(np);
     std::vector<char> ok(2 * np, 0);
-    std::atomic<std::size_t> next{0};
-    auto worker = [&] {
+    common::parallel_for(2 * np, threads_, [&](std::size_t job) {
+      const std::size_t j = job / 2;
+      const OutputErrorParameter& par = problem_.parameters[j];
+      const double x = p[j], h = fd_step(par, x);
+      step_hi[j] = std::min(x + h, par.upper);
+      step_lo[j] = std::max(x - h, par.lower);
       std::vector<double> q(p);
-      for (std::size_t job = next++; job < 2 * np; job = next++) {
-        const std::size_t j = job / 2;
-        const OutputErrorParameter& par = problem_.parameters[j];
-        const double x = p[j], h = fd_step(par, x);
-        step_hi[j] = std::min(x + h, par.upper);
-        step_lo[j] = std::max(x - h, par.lower);
-        q = p;
-        q[j] = job % 2 == 0 ? step_hi[j] : step_lo[j];
-        ok[job] = residual_at(q.data(), job % 2 == 0 ? plus[j].data() : minus[j].data());
-      }
-    };
-    const unsigned n_threads = thread_count(threads_, 2 * np);
-    std::vector<std::thread> pool;
-    for (unsigned k = 1; k < n_threads; ++k) pool.emplace_back(worker);
-    worker();
-    for (auto& t : pool) t.join();
+      q[j] = job % 2 == 0 ? step_hi[j] : step_lo[j];
+      ok[job] = residual_at(q.data(), job % 2 == 0 ? plus[j].data() : minus[j].data());
+    });
     for (std::size_t j = 0; j < np; ++j) {
       const double dx = step_hi[j] - step_lo[j];
       const bool good = ok[2 * j] && ok[2 * j + 1] && dx > 0.0;
@@ -172,22 +157,14 @@ SimulationResult simulate_output_error_run(const OutputErrorProblem& problem, co
 std::vector<double> output_error_rms(const OutputErrorProblem& problem, const std::vector<double>& p,
                                      unsigned threads) {
   std::vector<double> out(problem.runs.size(), std::numeric_limits<double>::quiet_NaN());
-  std::atomic<std::size_t> next{0};
-  auto worker = [&] {
-    for (std::size_t i = next++; i < problem.runs.size(); i = next++) {
-      const SimulationResult sim = simulate_output_error_run(problem, p.data(), i);
-      if (!sim.ok) continue;
-      const RunData& d = *problem.runs[i].data;
-      double ss = 0.0;
-      for (std::size_t k = 0; k < d.size(); ++k) ss += (sim.theta[k] - d.theta[k]) * (sim.theta[k] - d.theta[k]);
-      out[i] = std::sqrt(ss / static_cast<double>(d.size()));
-    }
-  };
-  const unsigned n = thread_count(threads, problem.runs.size());
-  std::vector<std::thread> pool;
-  for (unsigned k = 1; k < n; ++k) pool.emplace_back(worker);
-  worker();
-  for (auto& t : pool) t.join();
+  common::parallel_for(problem.runs.size(), threads, [&](std::size_t i) {
+    const SimulationResult sim = simulate_output_error_run(problem, p.data(), i);
+    if (!sim.ok) return;
+    const RunData& d = *problem.runs[i].data;
+    double ss = 0.0;
+    for (std::size_t k = 0; k < d.size(); ++k) ss += (sim.theta[k] - d.theta[k]) * (sim.theta[k] - d.theta[k]);
+    out[i] = std::sqrt(ss / static_cast<double>(d.size()));
+  });
   return out;
 }
 
@@ -284,22 +261,14 @@ OutputErrorResult fit_output_error(const OutputErrorProblem& problem,
     Eigen::MatrixXd jac(m, np);
     std::vector<std::vector<double>> jr(costs.size()), rr(costs.size());
     std::vector<char> ok(costs.size(), 0);
-    std::atomic<std::size_t> next{0};
-    auto worker = [&] {
-      for (std::size_t i = next++; i < costs.size(); i = next++) {
-        const std::size_t mi = costs[i]->residual_count();
-        jr[i].resize(mi * np);
-        rr[i].resize(mi);
-        const double* params[] = {best.data()};
-        double* jacs[] = {jr[i].data()};
-        ok[i] = costs[i]->Evaluate(params, rr[i].data(), jacs);
-      }
-    };
-    const unsigned n = thread_count(options.threads, costs.size());
-    std::vector<std::thread> pool;
-    for (unsigned k = 1; k < n; ++k) pool.emplace_back(worker);
-    worker();
-    for (auto& t : pool) t.join();
+    common::parallel_for(costs.size(), options.threads, [&](std::size_t i) {
+      const std::size_t mi = costs[i]->residual_count();
+      jr[i].resize(mi * np);
+      rr[i].resize(mi);
+      const double* params[] = {best.data()};
+      double* jacs[] = {jr[i].data()};
+      ok[i] = costs[i]->Evaluate(params, rr[i].data(), jacs);
+    });
     bool all_ok = std::all_of(ok.begin(), ok.end(), [](char c) { return c != 0; });
     if (all_ok) {
       std::size_t row = 0;

@@ -1,17 +1,18 @@
 #include "alphainv/simulate/experiment_plan.hpp"
 
-#include <charconv>
 #include <cmath>
-#include <cstdio>
 #include <set>
 #include <utility>
 
 #include "alphainv/error.hpp"
 #include "alphainv/simulate/reference.hpp"
+#include "common/format.hpp"
 
 namespace alphainv {
 
 namespace {
+
+using common::num;  // "%.6g", the messages' numbers
 
 // --- deterministic hashing (splitmix64)
 // -----------------------------------------------------------
@@ -43,12 +44,7 @@ constexpr std::uint64_t kMask53 = (std::uint64_t{1} << 53) - 1;
 
 // --- small JSON writer (the plan's JSON has a fixed shape; the data component owns the parser) ---
 
-std::string json_number(double x) {
-  if (!std::isfinite(x)) return "null";
-  char buf[64];
-  const auto res = std::to_chars(buf, buf + sizeof buf, x);  // shortest round-trip form
-  return std::string(buf, res.ptr);
-}
+std::string json_number(double x) { return std::isfinite(x) ? common::shortest(x) : "null"; }
 
 std::string json_string(const std::string& s) {
   std::string out = "\"";
@@ -58,9 +54,7 @@ std::string json_string(const std::string& s) {
       out += '\\';
       out += ch;
     } else if (c < 0x20) {
-      char buf[8];
-      std::snprintf(buf, sizeof buf, "\\u%04x", static_cast<unsigned>(c));
-      out += buf;
+      out += common::format("\\u%04x", static_cast<unsigned>(c));
     } else {
       out += ch;
     }
@@ -99,14 +93,8 @@ std::string num_array(const double* x, std::size_t n) {
 // --- validation helpers
 // ------------------------------------------------------------------------------
 
-std::string fmt(double x) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.6g", x);
-  return buf;
-}
-
 void require(bool ok, const std::string& field, const std::string& expected, double got) {
-  if (!ok) throw Error("expected " + expected + ", got " + fmt(got), {}, 0, field);
+  if (!ok) throw Error("expected " + expected + ", got " + num(got), {}, 0, field);
 }
 
 void validate_poses(const std::vector<PoseSetPoint>& poses, const std::string& name) {
@@ -118,8 +106,8 @@ void validate_poses(const std::vector<PoseSetPoint>& poses, const std::string& n
     require(std::isfinite(poses[i].gamma2_deg), f + ".gamma2_deg", "a finite angle [deg]",
             poses[i].gamma2_deg);
     if (!seen.insert({poses[i].gamma1_deg, poses[i].gamma2_deg}).second) {
-      throw Error("expected distinct poses, found (" + fmt(poses[i].gamma1_deg) + ", " +
-                      fmt(poses[i].gamma2_deg) + ") twice",
+      throw Error("expected distinct poses, found (" + num(poses[i].gamma1_deg) + ", " +
+                      num(poses[i].gamma2_deg) + ") twice",
                   {}, 0, f);
     }
   }
@@ -145,13 +133,6 @@ ControllerConfig controller_config(const Controller& c) {
                           : ControllerConfig::DerivativeOn::Error;
   if (c.has_limit()) out.v_limit = c.v_limit;
   return out;
-}
-
-/// "25", "1.5": compact decimal for file names.
-std::string name_number(double x) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%g", x);
-  return buf;
 }
 
 /// Rounds to 0.01°: the recorded pose is what the plant uses, exactly.
@@ -194,9 +175,9 @@ void ExperimentPlanOptions::validate() const {
     const std::string f = "sine_freqs_hz[" + std::to_string(i) + "]";
     const double x = sine_freqs_hz[i];
     require(std::isfinite(x) && x > 0.0 && x < nyquist, f,
-            "a frequency in (0, " + fmt(nyquist) + ") Hz", x);
+            "a frequency in (0, " + num(nyquist) + ") Hz", x);
     if (!freqs.insert(x).second)
-      throw Error("expected distinct frequencies, found " + fmt(x) + " twice", {}, 0, f);
+      throw Error("expected distinct frequencies, found " + num(x) + " twice", {}, 0, f);
   }
   validate_poses(sine_poses, "sine_poses");
   validate_poses(square_poses, "square_poses");
@@ -216,7 +197,7 @@ void ExperimentPlanOptions::validate() const {
   }
   if (any_square) {
     require(std::isfinite(square_freq_hz) && square_freq_hz > 0.0 && square_freq_hz < nyquist,
-            "square_freq_hz", "a frequency in (0, " + fmt(nyquist) + ") Hz", square_freq_hz);
+            "square_freq_hz", "a frequency in (0, " + num(nyquist) + ") Hz", square_freq_hz);
     require(std::isfinite(square_amplitude_rad) && square_amplitude_rad > 0.0,
             "square_amplitude_rad", "a positive amplitude [rad]", square_amplitude_rad);
     require(std::isfinite(square_duration_s) && square_duration_s > 0.0, "square_duration_s",
@@ -274,8 +255,8 @@ ExperimentPlan make_experiment_plan(const ExperimentPlanOptions& options) {
     at_pose.gamma1_deg = p.gamma1_deg;
     at_pose.gamma2_deg = p.gamma2_deg;
     validate_plant(at_pose, "plant.",
-                   " (at the true pose " + fmt(p.gamma1_deg) + ", " + fmt(p.gamma2_deg) +
-                       " deg of the set point " + fmt(set.gamma1_deg) + ", " + fmt(set.gamma2_deg) +
+                   " (at the true pose " + num(p.gamma1_deg) + ", " + num(p.gamma2_deg) +
+                       " deg of the set point " + num(set.gamma1_deg) + ", " + num(set.gamma2_deg) +
                        ")");
     p.inertia = options.plant.inertia.inertia(deg_to_rad(p.gamma1_deg), deg_to_rad(p.gamma2_deg));
     plan.poses.push_back(p);
@@ -294,8 +275,8 @@ ExperimentPlan make_experiment_plan(const ExperimentPlanOptions& options) {
       for (const double f : options.sine_freqs_hz) {
         PlannedRun run;
         run.kind = "sine";
-        run.file = "runs/sine_" + name_number(set.gamma1_deg) + "_" + name_number(set.gamma2_deg) +
-                   "_" + name_number(f) + "hz.csv";
+        run.file = "runs/sine_" + num(set.gamma1_deg) + "_" + num(set.gamma2_deg) +
+                   "_" + num(f) + "hz.csv";
         run.freq_hz = f;
         run.amplitude_rad = options.sine_amplitude_rad;
         const double periods = std::max(1.0, std::ceil(options.sine_steady_s * f - 1e-9));
@@ -312,7 +293,7 @@ ExperimentPlan make_experiment_plan(const ExperimentPlanOptions& options) {
     PlannedRun run;
     run.kind = "square";
     run.file =
-        "runs/square_" + name_number(set.gamma1_deg) + "_" + name_number(set.gamma2_deg) + ".csv";
+        "runs/square_" + num(set.gamma1_deg) + "_" + num(set.gamma2_deg) + ".csv";
     run.freq_hz = options.square_freq_hz;
     run.amplitude_rad = options.square_amplitude_rad;
     run.duration_s = options.square_duration_s;
@@ -324,7 +305,7 @@ ExperimentPlan make_experiment_plan(const ExperimentPlanOptions& options) {
   }
   for (const PlannedRun& run : plan.runs) {
     if (std::round(run.duration_s / T) > 1e8) {
-      throw Error("expected at most 1e8 samples per run, got " + fmt(run.duration_s / T), {}, 0,
+      throw Error("expected at most 1e8 samples per run, got " + num(run.duration_s / T), {}, 0,
                   run.kind == "sine" ? "sine_steady_s" : "square_duration_s");
     }
   }

@@ -3,23 +3,19 @@
 #include <cctype>
 #include <cerrno>
 #include <cmath>
-#include <cstdio>
 #include <cstdlib>
 #include <limits>
 #include <memory>
 
 #include "alphainv/error.hpp"
 #include "alphainv/model/inertia_model.hpp"
+#include "common/format.hpp"
 
 namespace alphainv {
 
 namespace {
 
-std::string fmt(double x) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%g", x);
-  return buf;
-}
+using common::num;  // "%.6g", the messages' numbers
 
 std::string trim(std::string_view s) {
   while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
@@ -48,7 +44,7 @@ std::pair<std::string, std::string> number_and_unit(std::string_view text) {
 
 void require_positive(double x, const char* field, const char* unit) {
   if (!std::isfinite(x) || !(x > 0.0)) {
-    throw Error(std::string("expected a finite number > 0 [") + unit + "], got " + fmt(x), {}, 0,
+    throw Error(std::string("expected a finite number > 0 [") + unit + "], got " + num(x), {}, 0,
                 field);
   }
 }
@@ -83,11 +79,11 @@ JointModelAtPose model_at(const ModelFile& model, std::optional<double> gamma1_d
                       use_alpha);
     m.effects = model.effects;
     if (!(m.inertia > 0.0)) {
-      throw Error("the inertia model gives I = " + fmt(m.inertia) + " <= 0 at this pose", {}, 0,
+      throw Error("the inertia model gives I = " + num(m.inertia) + " <= 0 at this pose", {}, 0,
                   "inertia_model");
     }
-    said = "inertia model (6) at gamma1 = " + fmt(*gamma1_deg) +
-           " deg, gamma2 = " + fmt(*gamma2_deg) + " deg: I = " + fmt(m.inertia);
+    said = "inertia model (6) at gamma1 = " + num(*gamma1_deg) +
+           " deg, gamma2 = " + num(*gamma2_deg) + " deg: I = " + num(m.inertia);
   } else {
     if (model.poses.empty()) {
       throw Error("the model has neither an inertia model nor a per-pose linear model", {}, 0,
@@ -123,7 +119,7 @@ JointModelAtPose model_at(const ModelFile& model, std::optional<double> gamma1_d
     m.c_linear = p.c_linear;
     m.beta_tilde_linear = p.beta_tilde_linear;
     const std::string at = p.gamma1_deg && p.gamma2_deg
-                               ? fmt(*p.gamma1_deg) + "/" + fmt(*p.gamma2_deg) + " deg"
+                               ? num(*p.gamma1_deg) + "/" + num(*p.gamma2_deg) + " deg"
                                : "pose angles unknown";
     said = std::string("no inertia model: the linear model of ") +
            (model.poses.size() > 1 ? "the nearest pose, " : "the only pose, ") + at + " (poses[" +
@@ -176,9 +172,7 @@ ModelRun simulate_model_run(const ModelFile& model, const JointModelAtPose& join
   const SimulationResult s = simulate(joint, run.controller, *ref, times, x0, run.simulation);
 
   run.info.kind = sine ? "sine" : "square";
-  char file[96];
-  std::snprintf(file, sizeof file, "runs/%s_%ghz.csv", run.info.kind.c_str(), o.freq_hz);
-  run.info.file = file;
+  run.info.file = "runs/" + run.info.kind + "_" + num(o.freq_hz) + "hz.csv";
   run.info.freq_hz = o.freq_hz;
   run.info.amplitude_rad = o.amplitude_rad;
   run.info.gamma1_deg = gamma1_deg;

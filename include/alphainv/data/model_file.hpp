@@ -55,7 +55,8 @@ struct ModelFile {
   std::vector<std::string> notes;                 ///< what the fit could not do, choices made
 };
 
-/// Writes model.json atomically (temporary file, then rename). Throws alphainv::Error on I/O, and
+/// Writes model.json atomically and durably (a temporary file in the same folder, fsync'ed, renamed
+/// over `path`, the folder fsync'ed). Throws alphainv::Error on I/O, and
 /// (before writing anything) on effects or loop_period_s that read_model_file would refuse.
 void write_model_file(const std::filesystem::path& path, const ModelFile& model);
 /// Reads model.json; throws alphainv::Error naming the file and the key on anything malformed.
