@@ -52,7 +52,13 @@ TEST(ModelFile, WritesAtomicallyAndReads) {
   const auto dir = std::filesystem::temp_directory_path() / "alphainv_test_model_file";
   std::filesystem::create_directories(dir);
   write_model_file(dir / "model.json", sample_model());
-  EXPECT_FALSE(std::filesystem::exists(dir / "model.json.tmp"));
+  // Only model.json is left: no temporary file of the atomic writer (".model.json.tmp.<pid>.<n>").
+  std::size_t files = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(dir)) {
+    ++files;
+    EXPECT_EQ(entry.path().filename(), "model.json");
+  }
+  EXPECT_EQ(files, 1u);
   EXPECT_EQ(read_model_file(dir / "model.json").alpha.c_n1[3], 61.733);
   std::filesystem::remove_all(dir);
 }
