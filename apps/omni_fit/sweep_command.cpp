@@ -133,8 +133,14 @@ int run_sweep(const SweepCommandOptions& o) {
     for (std::uint64_t seed : o.seeds)
       for (double noise : noises)
         for (double m : mags)
-          for (int r = 0; r < repeat; ++r)
-            cases.push_back({k, m, noise, seed + 1000u * static_cast<std::uint64_t>(r)});
+          for (int r = 0; r < repeat; ++r) {
+            SweepCase c;
+            c.effect = k;
+            c.magnitude = m;
+            c.noise_std_rad = noise;
+            c.seed = seed + 1000u * static_cast<std::uint64_t>(r);
+            cases.push_back(c);
+          }
   }
   for (SweepCase& c : cases) {
     if (o.vary) draw_variation(c);
