@@ -129,8 +129,6 @@ json state_json(const rt::TickRecord& r) {
           {"enable", r.enable}};
 }
 
-json timing_json(const device::TimingStats& t) { return json::parse(t.to_json()); }
-
 class Server {
  public:
   Server(const Options& opt, device::LoopRunner& runner, device::Transport& transport,
@@ -345,9 +343,7 @@ class Server {
     if (!o.record_dir.empty()) {
       device::RunRecording rec;
       rec.dir = o.record_dir;
-      rec.kind = o.wave_kind == "hold" ? "other" : o.wave_kind;
-      rec.freq_hz = o.freq_hz;
-      rec.amplitude_rad = o.amplitude_rad;
+      rec.wave = make_run_command(o, id).wave;
       rec.command_line = msg.contains("command_line") && msg["command_line"].is_string()
                              ? msg["command_line"].get<std::string>()
                              : "omni_ctl --daemon: " + msg.dump();
@@ -377,12 +373,10 @@ class Server {
           {"stopped", r.stopped},
           {"rows", r.rows},
           {"dropped_rows", r.dropped_rows},
-          {"timing", timing_json(r.timing)}};
+          {"timing", device::timing_json<json>(r.timing)}};
       if (!r.dir.empty()) ev["record"] = r.dir.string();
       if (!r.recording_error.empty()) ev["recording_error"] = r.recording_error;
-      spdlog::info(
-          "run {} done: {} rows{}", r.run_id, r.rows,
-          r.fault == rt::Fault::kNone ? "" : std::string(", fault: ") + rt::to_string(r.fault));
+      spdlog::info("{}", r.brief_report());
       const auto it = owner_.find(r.run_id);
       if (it != owner_.end()) {
         if (Client* c = find(it->second)) reply(*c, ev);
@@ -501,23 +495,18 @@ int run_daemon(const Options& opt) {
   loop_thread.join();
   transport->close();
 
-  int code = kExitOk;
-  json end = {{"event", "daemon_exit"}, {"timing", timing_json(outcome.timing)}};
-  if (outcome.fault != rt::Fault::kNone) {
+  json end = {{"event", "daemon_exit"}, {"timing", device::timing_json<json>(outcome.timing)}};
+  if (!outcome.usable()) {
     end["fault"] = rt::to_string(outcome.fault);
-    spdlog::critical(
-        "FAULT: {} at t = {:.3f} s; the motor command was zeroed and the motor "
-        "disabled{}",
-        rt::to_string(outcome.fault), outcome.fault_t_s,
-        outcome.fault_detail.empty() ? "" : " (" + outcome.fault_detail + ")");
-    code = kExitFault;
+    spdlog::critical("{}", outcome.brief_report());
   } else {
-    spdlog::info("stopped by signal; motor zeroed and disabled");
+    spdlog::info("{}", outcome.brief_report());
   }
   server->broadcast_end(end);
   close(listen_fd);
   unlink(opt.socket_path.c_str());
   spdlog::info("timing: {}", outcome.timing.to_text());
+  const int code = outcome.usable() ? kExitOk : kExitFault;
   return code;
 }
 

@@ -102,18 +102,17 @@ int run_local(const Options& opt) {
     transport->close();
     return fail(kExitBadInput, e.what());
   }
+  const device::LoopCommand run = make_run_command(opt, 1);
   if (!opt.record_dir.empty()) {
     device::RunRecording rec;
     rec.dir = opt.record_dir;
-    rec.kind = opt.wave_kind == "hold" ? "other" : opt.wave_kind;
-    rec.freq_hz = opt.freq_hz;
-    rec.amplitude_rad = opt.amplitude_rad;
+    rec.wave = run.wave;
     rec.command_line = opt.command_line;
     rec.device = transport->describe();
     rec.model_source = model_source;
     runner->add_recording(1, rec);
   }
-  (void)runner->post(make_run_command(opt, 1));
+  (void)runner->post(run);
 
   const device::RealtimeSetup rt_setup = device::request_realtime(opt.rt_priority, !opt.no_mlock);
   for (const auto& w : rt_setup.warnings)
@@ -129,30 +128,17 @@ int run_local(const Options& opt) {
   const bool have_result = runner->wait_run(1, 30.0, result);
   transport->close();
 
-  std::fprintf(stderr, "omni_ctl: timing: %s\n", outcome.timing.to_text().c_str());
-  int code = kExitOk;
-  if (outcome.fault != rt::Fault::kNone) {
-    std::string msg = std::string("FAULT: ") + rt::to_string(outcome.fault) +
-                      " at t = " + std::to_string(outcome.fault_t_s) +
-                      " s; the motor command was zeroed and the motor disabled";
-    if (!outcome.fault_detail.empty()) msg += " (" + outcome.fault_detail + ")";
-    fail(kExitFault, msg);
-    code = kExitFault;
-  } else if (outcome.stop_requested) {
-    std::fprintf(stderr, "omni_ctl: stopped by signal; motor zeroed and disabled\n");
-  }
+  std::fprintf(stderr, "omni_ctl: %s", outcome.full_report().c_str());
   if (!opt.record_dir.empty()) {
-    if (!have_result) {
-      fail(kExitRecording, "the recording did not finish in time: " + opt.record_dir);
-      if (code == kExitOk) code = kExitRecording;
-    } else if (!result.recording_error.empty()) {
-      fail(kExitRecording, "recording not written: " + result.recording_error);
-      if (code == kExitOk) code = kExitRecording;
-    } else {
-      std::fprintf(stderr, "omni_ctl: recorded %ld rows to %s%s\n", result.rows,
-                   opt.record_dir.c_str(),
-                   result.dropped_rows ? " (some rows dropped: the writer fell behind)" : "");
-    }
+    std::fprintf(stderr, "omni_ctl: %s\n",
+                 have_result ? result.brief_report().c_str()
+                             : ("the recording did not finish in time: " + opt.record_dir).c_str());
+  }
+  int code = kExitOk;
+  if (!outcome.usable()) {
+    code = kExitFault;
+  } else if (!opt.record_dir.empty() && (!have_result || !result.usable())) {
+    code = kExitRecording;
   }
   return code;
 }
