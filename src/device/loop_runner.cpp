@@ -133,6 +133,11 @@ RealtimeSetup request_realtime(int priority, bool lock_memory) {
   return setup;
 }
 
+std::string RealtimeSetup::describe() const {
+  return std::string(fifo ? "SCHED_FIFO" : "normal scheduler") + (locked ? ", memory locked" : "") +
+         (cpu_dma_latency_zero ? ", cpu_dma_latency 0" : "");
+}
+
 LoopOutcome LoopRunner::run(const std::atomic<bool>& stop) {
   LoopOutcome outcome;
   const double period_s = loop_.config().period_s;

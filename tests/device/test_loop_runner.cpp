@@ -175,6 +175,16 @@ TEST(LoopOutcome, ReportsHowTheLoopEnded) {
   EXPECT_EQ(full.back(), '\n');
 }
 
+TEST(RealtimeSetup, DescribesWhatWasGranted) {
+  RealtimeSetup setup;
+  EXPECT_EQ(setup.describe(), "normal scheduler");
+  setup.locked = true;
+  EXPECT_EQ(setup.describe(), "normal scheduler, memory locked");
+  setup.fifo = true;
+  setup.cpu_dma_latency_zero = true;
+  EXPECT_EQ(setup.describe(), "SCHED_FIFO, memory locked, cpu_dma_latency 0");
+}
+
 TEST(LoopRunner, TheLoopAllocatesNothingPerTick) {
   // run() allocates its statistics once before the first tick; the count must not grow with the
   // number of ticks. Holding position, no run posted: the writer thread stays idle.

@@ -49,6 +49,10 @@ struct RealtimeSetup {
   bool locked = false;                ///< mlockall succeeded
   bool cpu_dma_latency_zero = false;  ///< /dev/cpu_dma_latency held at 0 µs (as cyclictest does)
   std::vector<std::string> warnings;  ///< one line per refusal, with the fix
+
+  /// What was obtained, for a log line: "SCHED_FIFO, memory locked, cpu_dma_latency 0", or
+  /// "normal scheduler" and what else was granted.
+  std::string describe() const;
 };
 
 /// Asks for SCHED_FIFO at `priority` (0: don't ask) for the calling thread and, with
