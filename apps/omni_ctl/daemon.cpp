@@ -29,8 +29,6 @@
 #include "alphainv/error.hpp"
 #include "options.hpp"
 
-extern std::atomic<bool> g_omni_ctl_stop;
-
 namespace omni_ctl {
 namespace {
 
@@ -41,7 +39,6 @@ using Clock = std::chrono::steady_clock;
 
 constexpr std::size_t kMaxMessageBytes = 4096;  ///< one request line, newline excluded
 constexpr int kMaxClients = 16;
-std::atomic<bool> g_realtime{false};  ///< the loop thread got SCHED_FIFO
 
 struct Client {
   int fd = -1;
@@ -129,13 +126,17 @@ json state_json(const rt::TickRecord& r) {
           {"enable", r.enable}};
 }
 
-json timing_json(const device::TimingStats& t) { return json::parse(t.to_json()); }
-
+/// The daemon's state: the loop it serves, its clients and their runs. One object, handed to the
+/// loop thread (set_realtime, on_run_done) and run by the main thread (serve).
 class Server {
  public:
-  Server(const Options& opt, device::LoopRunner& runner, device::Transport& transport,
-         std::string model_source)
-      : opt_(opt), runner_(runner), transport_(transport), model_source_(std::move(model_source)) {}
+  /// Serves `runner`, set up from `setup`, until `stop` turns true (a signal).
+  Server(const Options& opt, device::LoopRunner& runner, const LoopSetup& setup,
+         const std::atomic<bool>& stop)
+      : opt_(opt), runner_(runner), setup_(setup), stop_(stop) {}
+
+  /// What the loop thread obtained: SCHED_FIFO or not (the `status` reply's `realtime`).
+  void set_realtime(bool fifo) { realtime_.store(fifo); }
 
   void on_run_done(const device::RunResult& r) {
     std::lock_guard<std::mutex> lock(done_mutex_);
@@ -144,7 +145,7 @@ class Server {
 
   /// Serves until `loop_running` turns false or a stop is requested.
   void serve(int listen_fd, const std::atomic<bool>& loop_running) {
-    while (loop_running.load() && !g_omni_ctl_stop.load()) {
+    while (loop_running.load() && !stop_.load()) {
       std::vector<pollfd> fds;
       fds.push_back({listen_fd, POLLIN, 0});
       for (const Client& c : clients_) fds.push_back({c.fd, POLLIN, 0});
@@ -278,9 +279,9 @@ class Server {
                   {"running", runner_.running_waveform()},
                   {"ticks", runner_.ticks()},
                   {"deadline_misses", runner_.deadline_misses()},
-                  {"realtime", g_realtime.load()},
-                  {"device", transport_.describe()},
-                  {"model", model_source_},
+                  {"realtime", realtime_.load()},
+                  {"device", setup_.transport->describe()},
+                  {"model", setup_.model_source},
                   {"max_command_v", runner_.config().safety.max_command_v},
                   {"kp_max", runner_.config().kp_max}});
       } else if (cmd == "gains") {
@@ -318,15 +319,14 @@ class Server {
       throw Error("expected one of sine, square, step, hold", {}, 0, "waveform");
     }
     Options o = opt_;
-    o.wave_kind = msg["waveform"].get<std::string>();
-    if (o.wave_kind != "sine" && o.wave_kind != "square" && o.wave_kind != "step" &&
-        o.wave_kind != "hold") {
-      throw Error("expected one of sine, square, step, hold, got '" + o.wave_kind + "'", {}, 0,
+    const std::string name = msg["waveform"].get<std::string>();
+    o.wave = wave_from_name(name);
+    if (!o.wave) {
+      throw Error("expected one of sine, square, step, hold, got '" + name + "'", {}, 0,
                   "waveform");
     }
-    const bool periodic = o.wave_kind == "sine" || o.wave_kind == "square";
-    if (periodic && !msg.contains("freq_hz"))
-      throw Error("missing for " + o.wave_kind, {}, 0, "freq_hz");
+    const bool periodic = is_periodic(*o.wave);
+    if (periodic && !msg.contains("freq_hz")) throw Error("missing for " + name, {}, 0, "freq_hz");
     o.freq_hz = number_field(msg, "freq_hz", 0.0, periodic ? 1e-3 : 0.0, 100.0);
     o.amplitude_rad = number_field(msg, "amplitude_rad", 0.07, 0.0, 1.0);
     o.duration_s = number_field(msg, "duration_s", 10.0, 1e-3, 86400.0);
@@ -342,23 +342,16 @@ class Server {
       throw Error("a run is in progress; send stop first", {}, 0, "cmd");
     }
     const std::uint32_t id = ++last_run_id_;
+    const device::LoopCommand run = make_run_command(o, id);
     if (!o.record_dir.empty()) {
-      device::RunRecording rec;
-      rec.dir = o.record_dir;
-      rec.kind = o.wave_kind == "hold" ? "other" : o.wave_kind;
-      rec.freq_hz = o.freq_hz;
-      rec.amplitude_rad = o.amplitude_rad;
-      rec.command_line = msg.contains("command_line") && msg["command_line"].is_string()
-                             ? msg["command_line"].get<std::string>()
-                             : "omni_ctl --daemon: " + msg.dump();
-      rec.device = transport_.describe();
-      rec.model_source = model_source_;
-      runner_.add_recording(id, rec);
+      o.command_line = msg.contains("command_line") && msg["command_line"].is_string()
+                           ? msg["command_line"].get<std::string>()
+                           : "omni_ctl --daemon: " + msg.dump();
+      runner_.add_recording(id, make_recording(o, run, setup_));
     }
-    if (!runner_.post(make_run_command(o, id)))
-      throw Error("the loop's command queue is full; retry");
+    if (!runner_.post(run)) throw Error("the loop's command queue is full; retry");
     owner_[id] = c.fd;
-    spdlog::info("run {}: {} {} Hz, {} rad, {} s{}", id, o.wave_kind, o.freq_hz, o.amplitude_rad,
+    spdlog::info("run {}: {} {} Hz, {} rad, {} s{}", id, name, o.freq_hz, o.amplitude_rad,
                  o.duration_s, o.record_dir.empty() ? "" : ", recording to " + o.record_dir);
     reply(c, {{"ok", true}, {"cmd", "run"}, {"run_id", id}});
   }
@@ -377,12 +370,10 @@ class Server {
           {"stopped", r.stopped},
           {"rows", r.rows},
           {"dropped_rows", r.dropped_rows},
-          {"timing", timing_json(r.timing)}};
+          {"timing", device::timing_json<json>(r.timing)}};
       if (!r.dir.empty()) ev["record"] = r.dir.string();
       if (!r.recording_error.empty()) ev["recording_error"] = r.recording_error;
-      spdlog::info(
-          "run {} done: {} rows{}", r.run_id, r.rows,
-          r.fault == rt::Fault::kNone ? "" : std::string(", fault: ") + rt::to_string(r.fault));
+      spdlog::info("{}", r.brief_report());
       const auto it = owner_.find(r.run_id);
       if (it != owner_.end()) {
         if (Client* c = find(it->second)) reply(*c, ev);
@@ -417,8 +408,9 @@ class Server {
 
   const Options& opt_;
   device::LoopRunner& runner_;
-  device::Transport& transport_;
-  std::string model_source_;
+  const LoopSetup& setup_;
+  const std::atomic<bool>& stop_;
+  std::atomic<bool> realtime_{false};  ///< the loop thread got SCHED_FIFO
   std::vector<Client> clients_;
   std::map<std::uint32_t, int> owner_;  ///< runs posted and not finished → the client's fd
   std::uint32_t last_run_id_ = 0;
@@ -443,35 +435,33 @@ int connect_daemon(const std::string& path) {
   return fd;
 }
 
-int run_daemon(const Options& opt) {
+ExitCode run_daemon(const Options& opt, std::atomic<bool>& stop) {
   auto logger = spdlog::stderr_color_mt("omni_ctl");
   spdlog::set_default_logger(logger);
   spdlog::set_pattern("omni_ctl[%P] %l: %v");
-  std::string model_source, model_note;
-  rt::ControlLoopConfig cfg;
-  std::unique_ptr<device::Transport> transport;
+  LoopSetup setup;
   try {
-    cfg = make_loop_config(opt, model_source, model_note);
-    transport = make_transport(opt);
+    setup = make_loop_setup(opt);
   } catch (const Error& e) {
     spdlog::error("{}", e.what());
-    return kExitBadInput;
+    return ExitCode::kBadInput;
   }
-  if (!model_note.empty()) spdlog::warn("{}", model_note);
+  if (!setup.model_note.empty()) spdlog::warn("{}", setup.model_note);
+  device::Transport& transport = *setup.transport;
   int listen_fd = -1;
   try {
     listen_fd = listen_on(opt.socket_path);
   } catch (const Error& e) {
     spdlog::error("{}", e.what());
-    return kExitDevice;
+    return ExitCode::kDevice;
   }
   try {
-    transport->open();
+    transport.open();
   } catch (const Error& e) {
     spdlog::error("{}", e.what());
     close(listen_fd);
     unlink(opt.socket_path.c_str());
-    return kExitDevice;
+    return ExitCode::kDevice;
   }
 
   std::unique_ptr<Server> server;
@@ -479,49 +469,41 @@ int run_daemon(const Options& opt) {
   ro.on_run_done = [&server](const device::RunResult& r) {
     if (server) server->on_run_done(r);
   };
-  device::LoopRunner runner(*transport, cfg, ro);
-  server = std::make_unique<Server>(opt, runner, *transport, model_source);
+  device::LoopRunner runner(transport, setup.config, ro);
+  server = std::make_unique<Server>(opt, runner, setup, stop);
 
   std::atomic<bool> loop_running{true};
   device::LoopOutcome outcome;
-  std::vector<std::string> rt_warnings;
-  std::mutex rt_mutex;
   std::thread loop_thread([&] {
-    const auto setup = device::request_realtime(opt.rt_priority, !opt.no_mlock);
-    g_realtime.store(setup.fifo);
-    for (const auto& w : setup.warnings) spdlog::warn("{}", w);
-    spdlog::info("loop: {} at {} Hz on {}, kp {}, max command {} V, socket {}",
-                 setup.fifo ? "SCHED_FIFO" : "normal scheduler", 1.0 / cfg.period_s,
-                 transport->describe(), cfg.kp, cfg.safety.max_command_v, opt.socket_path);
-    outcome = runner.run(g_omni_ctl_stop);
+    const auto rt_setup = device::request_realtime(opt.rt_priority, !opt.no_mlock);
+    server->set_realtime(rt_setup.fifo);
+    for (const auto& w : rt_setup.warnings) spdlog::warn("{}", w);
+    spdlog::info("loop at {} Hz on {}, kp {}, max command {} V, socket {}; {}",
+                 1.0 / setup.config.period_s, transport.describe(), setup.config.kp,
+                 setup.config.safety.max_command_v, opt.socket_path, rt_setup.describe());
+    outcome = runner.run(stop);
     loop_running.store(false);
   });
   server->serve(listen_fd, loop_running);
-  g_omni_ctl_stop.store(true);  // the server ended (signal or loop end): stop the loop too
+  stop.store(true);  // the server ended (signal or loop end): stop the loop too
   loop_thread.join();
-  transport->close();
+  transport.close();
 
-  int code = kExitOk;
-  json end = {{"event", "daemon_exit"}, {"timing", timing_json(outcome.timing)}};
-  if (outcome.fault != rt::Fault::kNone) {
+  json end = {{"event", "daemon_exit"}, {"timing", device::timing_json<json>(outcome.timing)}};
+  if (!outcome.usable()) {
     end["fault"] = rt::to_string(outcome.fault);
-    spdlog::critical(
-        "FAULT: {} at t = {:.3f} s; the motor command was zeroed and the motor "
-        "disabled{}",
-        rt::to_string(outcome.fault), outcome.fault_t_s,
-        outcome.fault_detail.empty() ? "" : " (" + outcome.fault_detail + ")");
-    code = kExitFault;
+    spdlog::critical("{}", outcome.brief_report());
   } else {
-    spdlog::info("stopped by signal; motor zeroed and disabled");
+    spdlog::info("{}", outcome.brief_report());
   }
   server->broadcast_end(end);
   close(listen_fd);
   unlink(opt.socket_path.c_str());
   spdlog::info("timing: {}", outcome.timing.to_text());
-  return code;
+  return outcome.usable() ? ExitCode::kOk : ExitCode::kFailed;
 }
 
-int run_client(int fd, const Options& opt) {
+ExitCode run_client(int fd, const Options& opt, const std::atomic<bool>& stop) {
   auto send_json = [fd](const json& j) {
     const std::string line = j.dump() + "\n";
     return send(fd, line.data(), line.size(), MSG_NOSIGNAL) == static_cast<ssize_t>(line.size());
@@ -542,7 +524,7 @@ int run_client(int fd, const Options& opt) {
           continue;
         }
       }
-      if (g_omni_ctl_stop.load() && !stop_sent) {
+      if (stop.load() && !stop_sent) {
         stop_sent = true;
         send_json({{"cmd", "stop"}});
       }
@@ -573,22 +555,22 @@ int run_client(int fd, const Options& opt) {
   std::fprintf(stderr, "omni_ctl: using the daemon at %s\n", opt.socket_path.c_str());
   if (!send_json({{"cmd", "gains"}, {"kp", opt.kp}}) || !expect_ok("the gain")) {
     close(fd);
-    return kExitBadInput;
+    return ExitCode::kBadInput;
   }
   json run = {{"cmd", "run"},
-              {"waveform", opt.wave_kind},
+              {"waveform", wave_name(opt.wave.value())},
               {"amplitude_rad", opt.amplitude_rad},
               {"duration_s", opt.duration_s},
               {"command_line", opt.command_line}};
-  if (opt.wave_kind == "sine" || opt.wave_kind == "square") run["freq_hz"] = opt.freq_hz;
+  if (is_periodic(*opt.wave)) run["freq_hz"] = opt.freq_hz;
   if (!opt.record_dir.empty()) run["record"] = fs::absolute(opt.record_dir).string();
   if (!send_json(run) || !expect_ok("the run")) {
     close(fd);
-    return kExitBadInput;
+    return ExitCode::kBadInput;
   }
   if (opt.stream_hz > 0.0) send_json({{"cmd", "stream"}, {"rate_hz", opt.stream_hz}});
   json ev;
-  int code = kExitDevice;
+  ExitCode code = ExitCode::kDevice;
   while (read_line(ev)) {
     const std::string kind = ev.value("event", std::string());
     if (kind == "state") {
@@ -596,13 +578,13 @@ int run_client(int fd, const Options& opt) {
       std::fflush(stdout);
     } else if (kind == "run_done") {
       std::fprintf(stderr, "omni_ctl: run done: %s\n", ev.dump().c_str());
-      code = kExitOk;
-      if (!ev["fault"].is_null()) code = kExitFault;
-      if (ev.contains("recording_error")) code = kExitRecording;
+      code = ExitCode::kOk;
+      if (!ev["fault"].is_null()) code = ExitCode::kFailed;
+      if (ev.contains("recording_error")) code = ExitCode::kRecording;
       break;
     } else if (kind == "daemon_exit") {
       std::fprintf(stderr, "omni_ctl: the daemon stopped: %s\n", ev.dump().c_str());
-      code = ev.contains("fault") ? kExitFault : kExitDevice;
+      code = ev.contains("fault") ? ExitCode::kFailed : ExitCode::kDevice;
       break;
     }
   }

@@ -9,27 +9,26 @@
 
 #include <CLI/CLI.hpp>
 #include <atomic>
-#include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <string>
 
 #include "alphainv/device/loop_runner.hpp"
 #include "alphainv/error.hpp"
+#include "apps/common/units.hpp"
 #include "options.hpp"
-
-/// Set by SIGINT/SIGTERM (and by the daemon when it ends); the loop and the server watch it.
-std::atomic<bool> g_omni_ctl_stop{false};
-static_assert(std::atomic<bool>::is_always_lock_free, "the signal handler needs a lock-free flag");
 
 namespace {
 
 using namespace alphainv;
 using namespace omni_ctl;
 
-std::atomic<bool>& g_stop = g_omni_ctl_stop;
+/// The one process-wide variable: set by SIGINT/SIGTERM, which end a run or the daemon. A signal
+/// handler can reach nothing but a global and may only store to a lock-free atomic
+/// (async-signal-safe); everything else is handed a reference to this flag.
+std::atomic<bool> g_stop{false};
+static_assert(std::atomic<bool>::is_always_lock_free, "the signal handler needs a lock-free flag");
 
-extern "C" void on_signal(int) { g_omni_ctl_stop.store(true); }
+extern "C" void on_signal(int) { g_stop.store(true); }
 
 void install_signal_handlers() {
   struct sigaction sa {};
@@ -40,34 +39,9 @@ void install_signal_handlers() {
   signal(SIGPIPE, SIG_IGN);
 }
 
-int fail(int code, const std::string& message) {
+ExitCode fail(ExitCode code, const std::string& message) {
   std::fprintf(stderr, "omni_ctl: %s\n", message.c_str());
   return code;
-}
-
-/// "3Hz", "0.25 Hz", "3" → Hz; "10s", "500ms", "10" → s. Throws CLI::ValidationError.
-double parse_with_unit(const std::string& option, const std::string& text, const std::string& unit,
-                       double scale_small, const std::string& small_unit) {
-  std::string s = text;
-  while (!s.empty() && s.back() == ' ') s.pop_back();
-  double factor = 1.0;
-  auto ends_with = [&](const std::string& u) {
-    return s.size() >= u.size() && s.compare(s.size() - u.size(), u.size(), u) == 0;
-  };
-  if (!small_unit.empty() && ends_with(small_unit)) {
-    s.resize(s.size() - small_unit.size());
-    factor = scale_small;
-  } else if (ends_with(unit)) {
-    s.resize(s.size() - unit.size());
-  }
-  while (!s.empty() && s.back() == ' ') s.pop_back();
-  char* end = nullptr;
-  const double x = std::strtod(s.c_str(), &end);
-  if (s.empty() || end != s.c_str() + s.size() || !std::isfinite(x) || !(x > 0.0)) {
-    throw CLI::ValidationError(option + ": expected a positive number with an optional unit " +
-                               unit + ", got '" + text + "'");
-  }
-  return x * factor;
 }
 
 std::string command_line(int argc, char** argv) {
@@ -76,85 +50,57 @@ std::string command_line(int argc, char** argv) {
   return out;
 }
 
-int run_local(const Options& opt) {
-  std::string model_source, model_note;
-  rt::ControlLoopConfig cfg;
-  std::unique_ptr<device::Transport> transport;
+ExitCode run_local(const Options& opt, const std::atomic<bool>& stop) {
+  LoopSetup setup;
   try {
-    cfg = make_loop_config(opt, model_source, model_note);
-    transport = make_transport(opt);
+    setup = make_loop_setup(opt);
   } catch (const Error& e) {
-    return fail(kExitBadInput, e.what());
+    return fail(ExitCode::kBadInput, e.what());
   }
-  if (!model_note.empty()) std::fprintf(stderr, "omni_ctl: note: %s\n", model_note.c_str());
+  if (!setup.model_note.empty()) {
+    std::fprintf(stderr, "omni_ctl: note: %s\n", setup.model_note.c_str());
+  }
+  device::Transport& transport = *setup.transport;
   try {
-    transport->open();
+    transport.open();
   } catch (const Error& e) {
-    return fail(kExitDevice, e.what());
+    return fail(ExitCode::kDevice, e.what());
   }
 
   device::LoopRunnerOptions ro;
   ro.exit_when_idle = true;
   std::unique_ptr<device::LoopRunner> runner;
   try {
-    runner = std::make_unique<device::LoopRunner>(*transport, cfg, ro);
+    runner = std::make_unique<device::LoopRunner>(transport, setup.config, ro);
   } catch (const Error& e) {
-    transport->close();
-    return fail(kExitBadInput, e.what());
+    transport.close();
+    return fail(ExitCode::kBadInput, e.what());
   }
-  if (!opt.record_dir.empty()) {
-    device::RunRecording rec;
-    rec.dir = opt.record_dir;
-    rec.kind = opt.wave_kind == "hold" ? "other" : opt.wave_kind;
-    rec.freq_hz = opt.freq_hz;
-    rec.amplitude_rad = opt.amplitude_rad;
-    rec.command_line = opt.command_line;
-    rec.device = transport->describe();
-    rec.model_source = model_source;
-    runner->add_recording(1, rec);
-  }
-  (void)runner->post(make_run_command(opt, 1));
+  const device::LoopCommand run = make_run_command(opt, 1);
+  const bool recorded = !opt.record_dir.empty();
+  if (recorded) runner->add_recording(1, make_recording(opt, run, setup));
+  (void)runner->post(run);
 
   const device::RealtimeSetup rt_setup = device::request_realtime(opt.rt_priority, !opt.no_mlock);
   for (const auto& w : rt_setup.warnings)
     std::fprintf(stderr, "omni_ctl: warning: %s\n", w.c_str());
-  std::fprintf(stderr, "omni_ctl: %s on %s, kp %g, %s%s%s\n", opt.wave_kind.c_str(),
-               transport->describe().c_str(), opt.kp,
-               rt_setup.fifo ? "SCHED_FIFO" : "normal scheduler",
-               rt_setup.locked ? ", memory locked" : "",
-               rt_setup.cpu_dma_latency_zero ? ", cpu_dma_latency 0" : "");
+  std::fprintf(stderr, "omni_ctl: %s on %s, kp %g, %s\n", wave_name(run.wave.kind),
+               transport.describe().c_str(), opt.kp, rt_setup.describe().c_str());
 
-  const device::LoopOutcome outcome = runner->run(g_stop);
+  const device::LoopOutcome outcome = runner->run(stop);
   device::RunResult result;
   const bool have_result = runner->wait_run(1, 30.0, result);
-  transport->close();
+  transport.close();
 
-  std::fprintf(stderr, "omni_ctl: timing: %s\n", outcome.timing.to_text().c_str());
-  int code = kExitOk;
-  if (outcome.fault != rt::Fault::kNone) {
-    std::string msg = std::string("FAULT: ") + rt::to_string(outcome.fault) +
-                      " at t = " + std::to_string(outcome.fault_t_s) +
-                      " s; the motor command was zeroed and the motor disabled";
-    if (!outcome.fault_detail.empty()) msg += " (" + outcome.fault_detail + ")";
-    fail(kExitFault, msg);
-    code = kExitFault;
-  } else if (outcome.stop_requested) {
-    std::fprintf(stderr, "omni_ctl: stopped by signal; motor zeroed and disabled\n");
+  std::fprintf(stderr, "omni_ctl: %s", outcome.full_report().c_str());
+  if (recorded) {
+    std::fprintf(stderr, "omni_ctl: %s\n",
+                 have_result ? result.brief_report().c_str()
+                             : ("the recording did not finish in time: " + opt.record_dir).c_str());
   }
-  if (!opt.record_dir.empty()) {
-    if (!have_result) {
-      fail(kExitRecording, "the recording did not finish in time: " + opt.record_dir);
-      if (code == kExitOk) code = kExitRecording;
-    } else if (!result.recording_error.empty()) {
-      fail(kExitRecording, "recording not written: " + result.recording_error);
-      if (code == kExitOk) code = kExitRecording;
-    } else {
-      std::fprintf(stderr, "omni_ctl: recorded %ld rows to %s%s\n", result.rows,
-                   opt.record_dir.c_str(),
-                   result.dropped_rows ? " (some rows dropped: the writer fell behind)" : "");
-    }
-  }
-  return code;
+  if (!outcome.usable()) return ExitCode::kFailed;
+  if (recorded && (!have_result || !result.usable())) return ExitCode::kRecording;
+  return ExitCode::kOk;
 }
 
 }  // namespace
@@ -222,41 +168,44 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
     if (!sine.empty()) {
-      opt.wave_kind = "sine";
-      opt.freq_hz = parse_with_unit("--sine", sine, "Hz", 0.0, "");
+      opt.wave = rt::WaveKind::kSine;
+      opt.freq_hz = apps::parse_frequency_hz(sine, "--sine");
     } else if (!square.empty()) {
-      opt.wave_kind = "square";
-      opt.freq_hz = parse_with_unit("--square", square, "Hz", 0.0, "");
+      opt.wave = rt::WaveKind::kSquare;
+      opt.freq_hz = apps::parse_frequency_hz(square, "--square");
     } else if (step) {
-      opt.wave_kind = "step";
+      opt.wave = rt::WaveKind::kStep;
     } else if (hold) {
-      opt.wave_kind = "hold";
+      opt.wave = rt::WaveKind::kHold;
     }
-    if (!duration.empty())
-      opt.duration_s = parse_with_unit("--duration", duration, "s", 1e-3, "ms");
+    if (!duration.empty()) opt.duration_s = apps::parse_duration_s(duration, "--duration");
     if (opt.freq_hz > 100.0)
       throw CLI::ValidationError("--sine/--square: expected a frequency up to 100 Hz");
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
     std::fprintf(stderr, "omni_ctl: %s\nRun 'omni_ctl --help' for usage.\n", e.what());
-    return kExitUsage;
+    return apps::exit_status(ExitCode::kUsage);
+  } catch (const Error& e) {
+    std::fprintf(stderr, "omni_ctl: %s\nRun 'omni_ctl --help' for usage.\n",
+                 apps::option_error(e).c_str());
+    return apps::exit_status(ExitCode::kUsage);
   }
-  if (opt.joint != "yaw")
-    return fail(kExitUsage, "--joint: only 'yaw' is supported, got '" + opt.joint + "'");
+  if (opt.joint != "yaw") {
+    return apps::exit_status(
+        fail(ExitCode::kUsage, "--joint: only 'yaw' is supported, got '" + opt.joint + "'"));
+  }
   if (opt.socket_path.empty()) opt.socket_path = default_socket_path();
   install_signal_handlers();
 
+  ExitCode code = ExitCode::kOk;
   if (opt.daemon) {
-    if (!opt.wave_kind.empty()) return fail(kExitUsage, "--daemon takes no waveform");
-    return run_daemon(opt);
+    code = opt.wave ? fail(ExitCode::kUsage, "--daemon takes no waveform") : run_daemon(opt, g_stop);
+  } else if (!opt.wave) {
+    code = fail(ExitCode::kUsage, "give a waveform: --sine FREQ, --square FREQ, --step or --hold");
+  } else {
+    const int fd = opt.local ? -1 : connect_daemon(opt.socket_path);
+    code = fd >= 0 ? run_client(fd, opt, g_stop) : run_local(opt, g_stop);
   }
-  if (opt.wave_kind.empty()) {
-    return fail(kExitUsage, "give a waveform: --sine FREQ, --square FREQ, --step or --hold");
-  }
-  if (!opt.local) {
-    const int fd = connect_daemon(opt.socket_path);
-    if (fd >= 0) return run_client(fd, opt);
-  }
-  return run_local(opt);
+  return apps::exit_status(code);
 }

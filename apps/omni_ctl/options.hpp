@@ -1,33 +1,31 @@
 #pragma once
-// omni_ctl's settings, shared by the single-run mode, the daemon and the client.
+// omni_ctl's settings, shared by the single-run mode, the daemon and the client, and what they
+// build from them alike: the loop's setup, a run's command and its recording.
+#include <atomic>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 
+#include "alphainv/device/control_loop.hpp"
 #include "alphainv/device/loop_runner.hpp"
 #include "alphainv/device/transport.hpp"
-#include "alphainv/device/control_loop.hpp"
+#include "apps/common/exit_code.hpp"
 
 namespace omni_ctl {
 
-/// Exit codes (also in docs/omni_ctl.md).
-enum ExitCode : int {
-  kExitOk = 0,
-  kExitUsage = 1,      ///< bad command line
-  kExitBadInput = 2,   ///< a value or file was rejected (the message names it)
-  kExitFault = 3,      ///< a safety fault stopped the loop (motor zeroed and disabled)
-  kExitDevice = 4,     ///< the device (or the daemon) could not be opened / reached
-  kExitRecording = 5,  ///< the loop ended cleanly but the recording could not be written
-};
+using alphainv::apps::ExitCode;  // docs/omni_ctl.md lists the codes
 
 /// Everything the command line sets.
 struct Options {
   std::string joint = "yaw";
-  std::string wave_kind;  // "sine", "square", "step", "hold"
-  double freq_hz = 0.0;
-  double amplitude_rad = 0.07;
-  double kp = 2.0;
-  double duration_s = 10.0;
+  /// The run's waveform (--sine, --square, --step, --hold); none given: the daemon, or a usage
+  /// error.
+  std::optional<alphainv::rt::WaveKind> wave;
+  double freq_hz = 0.0;         ///< sine, square [Hz]
+  double amplitude_rad = 0.07;  ///< reference amplitude [rad]
+  double kp = 2.0;              ///< P gain [V/rad]
+  double duration_s = 10.0;     ///< run length [s]
   std::string record_dir;
   std::string model_path;
   std::string device = "hid";
@@ -42,20 +40,39 @@ struct Options {
   std::string command_line;
 };
 
-/// The loop configuration for `opt` (model file loaded, limits applied). Throws alphainv::Error
-/// naming the option or file. `model_source` receives "paper" or the file.
-alphainv::rt::ControlLoopConfig make_loop_config(const Options& opt, std::string& model_source,
-                                                 std::string& model_note);
-/// The transport `opt.device` names (not opened). Throws alphainv::Error naming --device.
-std::unique_ptr<alphainv::device::Transport> make_transport(const Options& opt);
-/// The run command and recording of `opt`'s waveform.
+/// The name of a waveform in the daemon protocol and the messages: "sine", "square", "step",
+/// "hold".
+const char* wave_name(alphainv::rt::WaveKind kind);
+/// The waveform `name` names (the inverse of wave_name()), or none.
+std::optional<alphainv::rt::WaveKind> wave_from_name(const std::string& name);
+/// True for the waveforms that have a frequency (sine, square).
+bool is_periodic(alphainv::rt::WaveKind kind);
+
+/// What the loop runs with, built the same way by the single-run mode and the daemon.
+struct LoopSetup {
+  alphainv::rt::ControlLoopConfig config;                     ///< model file loaded, limits applied
+  std::unique_ptr<alphainv::device::Transport> transport;     ///< not opened
+  std::string model_source;  ///< "paper (Tables 5-7)" or the model file
+  std::string model_note;    ///< what the model file lacks and which effects it has, or empty
+};
+/// The loop setup of `opt`. Throws alphainv::Error naming the option or file.
+LoopSetup make_loop_setup(const Options& opt);
+
+/// The run command of `opt`'s waveform (which must be set).
 alphainv::device::LoopCommand make_run_command(const Options& opt, std::uint32_t run_id);
+/// The recording of `run` in opt.record_dir, with opt.command_line and `setup`'s device and model.
+alphainv::device::RunRecording make_recording(const Options& opt,
+                                              const alphainv::device::LoopCommand& run,
+                                              const LoopSetup& setup);
+
 /// The default socket path: $XDG_RUNTIME_DIR/alphainv/omni_ctl.sock, else /tmp/alphainv-$UID/….
 std::string default_socket_path();
-/// Runs the daemon (foreground). Returns the exit code.
-int run_daemon(const Options& opt);
-/// Sends `opt`'s run to the daemon at `fd` (connected) and waits for it. Returns the exit code.
-int run_client(int fd, const Options& opt);
+/// Runs the daemon (foreground) until `stop` turns true (a signal) or a fault; sets `stop` when
+/// it ends by itself.
+ExitCode run_daemon(const Options& opt, std::atomic<bool>& stop);
+/// Sends `opt`'s run to the daemon at `fd` (connected) and waits for it; when `stop` turns true
+/// (a signal), asks the daemon to stop the run.
+ExitCode run_client(int fd, const Options& opt, const std::atomic<bool>& stop);
 /// Connects to the daemon socket; −1 when there is none.
 int connect_daemon(const std::string& path);
 

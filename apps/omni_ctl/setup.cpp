@@ -1,4 +1,4 @@
-// omni_ctl: building the loop configuration and the transport from the options.
+// omni_ctl: the loop setup, a run's command and recording, from the options.
 #include <unistd.h>
 
 #include <cstdlib>
@@ -14,6 +14,10 @@ namespace omni_ctl {
 
 using namespace alphainv;
 
+namespace {
+
+/// The loop configuration of `opt` (model file loaded, limits applied); `model_source` receives
+/// "paper (Tables 5-7)" or the file, `model_note` what the file lacks and its effects.
 rt::ControlLoopConfig make_loop_config(const Options& opt, std::string& model_source,
                                        std::string& model_note) {
   rt::ControlLoopConfig cfg;
@@ -70,18 +74,61 @@ std::unique_ptr<device::Transport> make_transport(const Options& opt) {
               "--device");
 }
 
+}  // namespace
+
+const char* wave_name(rt::WaveKind kind) {
+  switch (kind) {
+    case rt::WaveKind::kSine:
+      return "sine";
+    case rt::WaveKind::kSquare:
+      return "square";
+    case rt::WaveKind::kStep:
+      return "step";
+    case rt::WaveKind::kHold:
+      break;
+  }
+  return "hold";
+}
+
+std::optional<rt::WaveKind> wave_from_name(const std::string& name) {
+  for (rt::WaveKind k :
+       {rt::WaveKind::kSine, rt::WaveKind::kSquare, rt::WaveKind::kStep, rt::WaveKind::kHold}) {
+    if (name == wave_name(k)) return k;
+  }
+  return std::nullopt;
+}
+
+bool is_periodic(rt::WaveKind kind) {
+  return kind == rt::WaveKind::kSine || kind == rt::WaveKind::kSquare;
+}
+
+LoopSetup make_loop_setup(const Options& opt) {
+  LoopSetup setup;
+  setup.config = make_loop_config(opt, setup.model_source, setup.model_note);
+  setup.transport = make_transport(opt);
+  return setup;
+}
+
 device::LoopCommand make_run_command(const Options& opt, std::uint32_t run_id) {
   device::LoopCommand c;
   c.kind = device::LoopCommand::Kind::kRun;
   c.run_id = run_id;
   c.duration_s = opt.duration_s;
+  c.wave.kind = opt.wave.value();
   c.wave.amplitude_rad = opt.amplitude_rad;
   c.wave.freq_hz = opt.freq_hz;
-  if (opt.wave_kind == "sine") c.wave.kind = rt::WaveKind::kSine;
-  if (opt.wave_kind == "square") c.wave.kind = rt::WaveKind::kSquare;
-  if (opt.wave_kind == "step") c.wave.kind = rt::WaveKind::kStep;
-  if (opt.wave_kind == "hold") c.wave.kind = rt::WaveKind::kHold;
   return c;
+}
+
+device::RunRecording make_recording(const Options& opt, const device::LoopCommand& run,
+                                    const LoopSetup& setup) {
+  device::RunRecording rec;
+  rec.dir = opt.record_dir;
+  rec.wave = run.wave;
+  rec.command_line = opt.command_line;
+  rec.device = setup.transport->describe();
+  rec.model_source = setup.model_source;
+  return rec;
 }
 
 std::string default_socket_path() {

@@ -8,6 +8,7 @@
 #include "alphainv/error.hpp"
 #include "alphainv/data/model_file.hpp"
 #include "alphainv/simulate/model_simulation.hpp"
+#include "apps/common/units.hpp"
 #include "common/format.hpp"
 
 namespace omni_fit {
@@ -71,11 +72,11 @@ int run_simulate(const SimulateCommandOptions& o) {
   std::optional<std::pair<double, double>> pose;
   try {
     run_opt.reference = o.sine.empty() ? ModelRunReference::kSquare : ModelRunReference::kSine;
-    run_opt.freq_hz = o.sine.empty() ? parse_frequency_hz(o.square, "--square")
-                                     : parse_frequency_hz(o.sine, "--sine");
-    run_opt.duration_s = parse_duration_s(o.duration, "--duration");
-    run_opt.sample_rate_hz = parse_frequency_hz(o.rate, "--rate");
-    if (!o.pose.empty()) pose = parse_pose_deg(o.pose, "--pose");
+    run_opt.freq_hz = o.sine.empty() ? apps::parse_frequency_hz(o.square, "--square")
+                                     : apps::parse_frequency_hz(o.sine, "--sine");
+    run_opt.duration_s = apps::parse_duration_s(o.duration, "--duration");
+    run_opt.sample_rate_hz = apps::parse_frequency_hz(o.rate, "--rate");
+    if (!o.pose.empty()) pose = apps::parse_pose_deg(o.pose, "--pose");
   } catch (const Error& e) {
     return usage(option_error(e));
   }

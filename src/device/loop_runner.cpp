@@ -10,11 +10,9 @@
 #include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
-#include <nlohmann/json.hpp>
 #include <optional>
-
-#include "alphainv/error.hpp"
 
 namespace alphainv::device {
 namespace {
@@ -39,39 +37,22 @@ timespec now_mono() noexcept {
   return t;
 }
 
-nlohmann::json summary_json(const rt::LatencySummary& s) {
-  return {{"count", s.count},          {"p50_us", s.p50_s * 1e6}, {"p99_us", s.p99_s * 1e6},
-          {"p999_us", s.p999_s * 1e6}, {"max_us", s.max_s * 1e6}, {"mean_us", s.mean_s * 1e6}};
-}
-
 }  // namespace
 
-std::string TimingStats::to_json() const {
-  nlohmann::json j = {{"period_s", period_s},
-                      {"ticks", ticks},
-                      {"deadline_misses", deadline_misses},
-                      {"skipped_ticks", skipped_ticks},
-                      {"wake_latency", summary_json(latency)},
-                      {"period_jitter", summary_json(period_jitter)},
-                      {"read", summary_json(read)},
-                      {"write", summary_json(write)}};
-  return j.dump();
+std::string LoopOutcome::brief_report() const {
+  if (fault != rt::Fault::kNone) {
+    char at[64];
+    std::snprintf(at, sizeof at, " at t = %.3f s", fault_t_s);
+    return std::string("FAULT: ") + rt::to_string(fault) + at +
+           "; the motor command was zeroed and the motor disabled" +
+           (fault_detail.empty() ? "" : " (" + fault_detail + ")");
+  }
+  if (stop_requested) return "stopped by signal or stop request; motor zeroed and disabled";
+  return "the run ended; motor zeroed and disabled";
 }
 
-std::string TimingStats::to_text() const {
-  char buf[768];
-  std::snprintf(buf, sizeof buf,
-                "ticks %ld, deadline misses %ld (%ld deadlines skipped)\n"
-                "wake-up latency [us]: p50 %.1f  p99 %.1f  p99.9 %.1f  max %.1f\n"
-                "period jitter [us]:   p50 %.1f  p99 %.1f  p99.9 %.1f  max %.1f\n"
-                "read [us]:            p50 %.1f  p99 %.1f  max %.1f\n"
-                "write [us]:           p50 %.1f  p99 %.1f  max %.1f",
-                ticks, deadline_misses, skipped_ticks, latency.p50_s * 1e6, latency.p99_s * 1e6,
-                latency.p999_s * 1e6, latency.max_s * 1e6, period_jitter.p50_s * 1e6,
-                period_jitter.p99_s * 1e6, period_jitter.p999_s * 1e6, period_jitter.max_s * 1e6,
-                read.p50_s * 1e6, read.p99_s * 1e6, read.max_s * 1e6, write.p50_s * 1e6,
-                write.p99_s * 1e6, write.max_s * 1e6);
-  return buf;
+std::string LoopOutcome::full_report() const {
+  return brief_report() + "\ntiming: " + timing.to_text() + "\n";
 }
 
 LoopRunner::LoopRunner(Transport& transport, const rt::ControlLoopConfig& config,
@@ -150,6 +131,11 @@ RealtimeSetup request_realtime(int priority, bool lock_memory) {
     }
   }
   return setup;
+}
+
+std::string RealtimeSetup::describe() const {
+  return std::string(fifo ? "SCHED_FIFO" : "normal scheduler") + (locked ? ", memory locked" : "") +
+         (cpu_dma_latency_zero ? ", cpu_dma_latency 0" : "");
 }
 
 LoopOutcome LoopRunner::run(const std::atomic<bool>& stop) {
@@ -326,30 +312,29 @@ LoopOutcome LoopRunner::run(const std::atomic<bool>& stop) {
   return outcome;
 }
 
+RunRecorder& LoopRunner::recorder(std::uint32_t run_id) {
+  auto& slot = partial_[run_id];
+  if (!slot) {
+    std::optional<RunRecording> recording;
+    if (auto it = recordings_.find(run_id); it != recordings_.end()) {
+      recording = std::move(it->second);
+      recordings_.erase(it);
+    }
+    slot = std::make_unique<RunRecorder>(run_id, std::move(recording));
+  }
+  return *slot;
+}
+
 void LoopRunner::writer_main() {
   RecordItem item;
   for (;;) {
     bool any = false;
     while (records_.pop(item)) {
       any = true;
-      std::unique_lock<std::mutex> lock(mutex_);
-      auto& p = partial_[item.run_id];
-      if (!p) {
-        p = std::make_unique<Partial>();
-        if (recordings_.count(item.run_id)) p->rows.reserve(1 << 16);
-      }
       if (item.end == 0) {
-        if (p->ticks == 0) p->run_start_s = item.run_start_s;
-        if (recordings_.count(item.run_id)) p->rows.push_back(item.record);
-        p->latency.add(item.record.wake_latency_s);
-        if (p->ticks > 0) p->period_jitter.add(item.record.period_jitter_s);
-        p->read.add(item.record.read_s);
-        p->write.add(item.record.write_s);
-        ++p->ticks;
-        p->misses += item.record.deadline_missed ? 1 : 0;
-        p->skipped += item.record.deadlines_skipped;
+        std::lock_guard<std::mutex> lock(mutex_);
+        recorder(item.run_id).add(item.record, item.run_start_s);
       } else {
-        lock.unlock();
         finish_run(item.run_id, item);
       }
     }
@@ -361,103 +346,18 @@ void LoopRunner::writer_main() {
 }
 
 void LoopRunner::finish_run(std::uint32_t run_id, const RecordItem& end_item) {
-  // The entry stays in partial_ until the dataset is written: run() waits for partial_ to empty.
-  Partial* p = nullptr;
-  std::optional<RunRecording> recording;
+  // The recorder stays in partial_ until the dataset is written: run() waits for partial_ to
+  // empty. Only this (writer) thread changes partial_, so the recorder outlives the lock.
+  const RunRecorder* rec = nullptr;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    auto& slot = partial_[run_id];
-    if (!slot) slot = std::make_unique<Partial>();
-    p = slot.get();  // only this (writer) thread changes partial_
-    if (auto it = recordings_.find(run_id); it != recordings_.end()) {
-      recording = it->second;
-      recordings_.erase(it);
-    }
+    rec = &recorder(run_id);
   }
-  RunResult result;
-  result.run_id = run_id;
-  result.fault = end_item.record.fault;
-  result.stopped = end_item.end == 2;
-  result.rows = static_cast<long>(p->rows.size());
-  result.dropped_rows = end_item.dropped;
-  result.timing.ticks = p->ticks;
-  result.timing.deadline_misses = p->misses;
-  result.timing.skipped_ticks = p->skipped;
-  result.timing.period_s = loop_.config().period_s;
-  result.timing.latency = p->latency.summary();
-  result.timing.period_jitter = p->period_jitter.summary();
-  result.timing.read = p->read.summary();
-  result.timing.write = p->write.summary();
-
-  if (recording) {
-    result.dir = recording->dir;
-    try {
-      const auto& rows = p->rows;
-      if (rows.size() < 2) throw Error("fewer than 2 ticks were recorded", recording->dir.string());
-      RunData data;
-      const std::size_t n = rows.size();
-      const char* extra_names[] = {"gamma1",     "gamma2",     "alpha",        "C",
-                                   "beta_tilde", "theta_pred", "torque_enable"};
-      for (const char* name : extra_names) data.extra_columns[name].reserve(n);
-      data.t.reserve(n);
-      const double t0 = p->run_start_s;  // t = 0 where the waveform starts
-      for (const rt::TickRecord& r : rows) {
-        data.t.push_back(r.t_s - t0);
-        data.r.push_back(r.r_rad);
-        data.theta.push_back(r.theta_rad);
-        data.v.push_back(r.command_v);
-        data.extra_columns["gamma1"].push_back(r.gamma1_rad);
-        data.extra_columns["gamma2"].push_back(r.gamma2_rad);
-        data.extra_columns["alpha"].push_back(r.alpha);
-        data.extra_columns["C"].push_back(r.damping);
-        data.extra_columns["beta_tilde"].push_back(r.beta_tilde);
-        data.extra_columns["theta_pred"].push_back(r.theta_pred_rad);
-        data.extra_columns["torque_enable"].push_back(r.enable ? 1.0 : 0.0);
-      }
-      Dataset ds;
-      ds.joint = "yaw";
-      ds.sample_rate_hz = 1.0 / loop_.config().period_s;
-      ds.controller.kp = kp_.load();
-      ds.controller.v_limit = loop_.config().safety.max_command_v;
-      RunInfo info;
-      info.file = "run.csv";
-      info.kind = recording->kind;
-      if (recording->kind == "sine" || recording->kind == "square") {
-        info.freq_hz = recording->freq_hz;
-        info.amplitude_rad = recording->amplitude_rad;
-      } else if (recording->kind == "step") {
-        info.amplitude_rad = recording->amplitude_rad;
-      }
-      info.controller = ds.controller;
-      info.gamma1_deg = rad_to_deg(rows.front().gamma1_rad);
-      info.gamma2_deg = rad_to_deg(rows.front().gamma2_rad);
-      ds.runs.push_back(info);
-      std::string ended = result.fault != rt::Fault::kNone
-                              ? std::string("fault: ") + rt::to_string(result.fault)
-                              : (result.stopped ? "stopped" : "completed");
-      nlohmann::json extra = {
-          {"source", "omni_ctl"},
-          {"command_line", recording->command_line},
-          {"device", recording->device},
-          {"model", recording->model_source},
-          {"ended", ended},
-          {"rows", result.rows},
-          {"dropped_rows", result.dropped_rows},
-          {"max_slew_v_per_s", loop_.config().safety.max_slew_v_per_s},
-          {"columns",
-           {{"theta_pred",
-             "the model's prediction of this row's theta made one tick earlier "
-             "(eq. (37) held over a tick); equal to theta when none was possible"},
-            {"alpha", "streaming alpha-hat of the command history, eq. (33) [V^2/s^2]"},
-            {"C", "C(alpha, I) [1/s], eqs. (38)-(40)"},
-            {"beta_tilde", "beta~(alpha, I) [rad/s^2/V], eqs. (41)-(42)"}}},
-          {"timing", nlohmann::json::parse(result.timing.to_json())}};
-      ds.extra_json = extra.dump();
-      write_dataset(recording->dir, ds, {data});
-    } catch (const std::exception& e) {
-      result.recording_error = e.what();
-    }
-  }
+  RunEnd end;
+  end.fault = end_item.record.fault;
+  end.stopped = end_item.end == 2;
+  end.dropped_rows = end_item.dropped;
+  const RunResult result = rec->finish(end, loop_.config(), kp_.load());
   {
     std::lock_guard<std::mutex> lock(mutex_);
     results_[run_id] = result;

@@ -229,7 +229,9 @@ TEST(OmniCtl, BadInputIsRejectedWithTheFieldNamed) {
   };
   std::ofstream(dir / "broken.json") << "{\"schema\": \"alphainv-model/1\", ";
   const std::vector<Case> cases = {
-      {{"--sine", "fastHz"}, 1, "--sine: expected a positive number"},
+      {{"--sine", "fastHz"}, 1, "--sine: expected a frequency like 3Hz"},
+      {{"--square", "0Hz"}, 1, "--square: expected a frequency > 0 Hz"},
+      {{"--sine", "3Hz", "--duration", "8min"}, 1, "--duration: expected a duration like 8s"},
       {{"--sine", "3Hz", "--kp", "50"}, 1, "--kp"},
       {{"--sine", "3Hz", "--square", "1Hz"}, 1, "excludes"},
       {{"--sine", "3Hz", "--duration", "-1s"}, 1, "--duration"},

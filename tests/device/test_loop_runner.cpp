@@ -1,38 +1,25 @@
 // LoopRunner on the virtual device: a recorded run reads back with the dataset reader, carries
 // the timing statistics, and stays complete when a fault or a stop request ends it.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <thread>
 
 #include "support/counting_allocator.hpp"
+#include "support/files.hpp"
 #include "alphainv/data/dataset.hpp"
 #include "alphainv/device/loop_runner.hpp"
 #include "alphainv/device/sim_transport.hpp"
 
 using namespace alphainv;
 using namespace alphainv::device;
+using alphainv::test::slurp;
 namespace fs = std::filesystem;
 
 namespace {
 
-fs::path temp_dir(const std::string& name) {
-  const fs::path p = fs::temp_directory_path() /
-                     ("alphainv_test_loop_runner_" + std::to_string(getpid()) + "_" + name);
-  fs::remove_all(p);
-  return p;
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream f(p);
-  std::stringstream s;
-  s << f.rdbuf();
-  return s.str();
-}
+fs::path temp_dir(const std::string& name) { return test::fresh_temp_dir("loop_runner", name); }
 
 LoopCommand sine_run(double duration_s) {
   LoopCommand c;
@@ -46,9 +33,7 @@ LoopCommand sine_run(double duration_s) {
 RunRecording recording(const fs::path& dir) {
   RunRecording r;
   r.dir = dir;
-  r.kind = "sine";
-  r.freq_hz = 3.0;
-  r.amplitude_rad = 0.07;
+  r.wave = rt::Waveform{rt::WaveKind::kSine, 0.07, 3.0, 0.0};
   r.device = "sim";
   r.model_source = "paper";
   return r;
@@ -117,6 +102,15 @@ TEST(LoopRunner, AFaultEndsTheRunWithACompleteRecording) {
   const LoopOutcome out = runner.run(stop);
   EXPECT_EQ(out.fault, rt::Fault::kEncoderJump);
   EXPECT_GE(out.fault_t_s, 0.2 - 1e-9);  // loop time: later when deadlines were skipped
+  EXPECT_FALSE(out.usable());
+  EXPECT_NE(out.brief_report().find("FAULT: encoder jump (theta changed too much in one tick) at t = 0."), std::string::npos)
+      << out.brief_report();
+  RunResult result;
+  ASSERT_TRUE(runner.wait_run(1, 5.0, result));
+  EXPECT_FALSE(result.usable());
+  EXPECT_EQ(result.brief_report(),
+            "run 1: fault: encoder jump (theta changed too much in one tick), 200 rows recorded "
+            "to " + dir.string());
   const Dataset ds = read_dataset_index(dir);
   const RunData run = read_run(ds, 0);
   // Device tick 200 (0.2 s) carries the jump; the loop reads it in its tick 200 and the run
@@ -154,11 +148,41 @@ TEST(LoopRunner, StopRequestEndsCleanly) {
   stopper.join();
   EXPECT_EQ(out.fault, rt::Fault::kNone);
   EXPECT_TRUE(out.stop_requested);
+  EXPECT_TRUE(out.usable());
+  EXPECT_EQ(out.brief_report(), "stopped by signal or stop request; motor zeroed and disabled");
   const RunData run = read_run(read_dataset_index(dir), 0);
   EXPECT_GT(run.size(), 200u);
   EXPECT_NE(slurp(dir / "dataset.json").find("\"ended\": \"stopped\""), std::string::npos);
   EXPECT_FALSE(t.device().written().back().report.enable);
   fs::remove_all(dir);
+}
+
+TEST(LoopOutcome, ReportsHowTheLoopEnded) {
+  LoopOutcome out;
+  out.timing.ticks = 1234;
+  EXPECT_TRUE(out.usable());
+  EXPECT_EQ(out.brief_report(), "the run ended; motor zeroed and disabled");
+  out.fault = rt::Fault::kDisconnected;
+  out.fault_t_s = 0.4006;
+  out.fault_detail = "hid_read: No such device";
+  EXPECT_FALSE(out.usable());
+  EXPECT_EQ(out.brief_report(),
+            "FAULT: device disconnected (a read or write failed) at t = 0.401 s; the motor "
+            "command was zeroed and the motor disabled (hid_read: No such device)");
+  const std::string full = out.full_report();
+  EXPECT_EQ(full.rfind(out.brief_report() + "\ntiming: ticks 1234, deadline misses 0", 0), 0u)
+      << full;
+  EXPECT_EQ(full.back(), '\n');
+}
+
+TEST(RealtimeSetup, DescribesWhatWasGranted) {
+  RealtimeSetup setup;
+  EXPECT_EQ(setup.describe(), "normal scheduler");
+  setup.locked = true;
+  EXPECT_EQ(setup.describe(), "normal scheduler, memory locked");
+  setup.fifo = true;
+  setup.cpu_dma_latency_zero = true;
+  EXPECT_EQ(setup.describe(), "SCHED_FIFO, memory locked, cpu_dma_latency 0");
 }
 
 TEST(LoopRunner, TheLoopAllocatesNothingPerTick) {

@@ -239,38 +239,6 @@ TEST(SimulateModelRun, BadOptionsNameTheOption) {
   EXPECT_EQ(field_of(o), "kp");
 }
 
-TEST(CommandLineValues, ParseWithUnits) {
-  EXPECT_EQ(parse_frequency_hz("3Hz", "--sine"), 3.0);
-  EXPECT_EQ(parse_frequency_hz("0.25Hz", "--square"), 0.25);
-  EXPECT_EQ(parse_frequency_hz("2.5 Hz", "--sine"), 2.5);
-  EXPECT_EQ(parse_frequency_hz("3", "--sine"), 3.0);
-  EXPECT_EQ(parse_frequency_hz("1kHz", "--rate"), 1000.0);
-  EXPECT_EQ(parse_duration_s("8s", "--duration"), 8.0);
-  EXPECT_EQ(parse_duration_s("500ms", "--duration"), 0.5);
-  EXPECT_EQ(parse_duration_s("2", "--duration"), 2.0);
-  EXPECT_EQ(parse_pose_deg("65,90", "--pose"), std::make_pair(65.0, 90.0));
-  EXPECT_EQ(parse_pose_deg(" 60.08 , 87 ", "--pose"), std::make_pair(60.08, 87.0));
-}
-
-TEST(CommandLineValues, BadValuesNameTheOption) {
-  for (const char* bad :
-       {"", "Hz", "3Hzz", "3 kg", "-3Hz", "0Hz", "nanHz", "infHz", "1e999Hz", "3Hz4", "three"}) {
-    try {
-      parse_frequency_hz(bad, "--sine");
-      ADD_FAILURE() << "accepted \"" << bad << "\"";
-    } catch (const Error& e) {
-      EXPECT_EQ(e.field(), "--sine") << bad;
-      EXPECT_NE(std::string(e.what()).find("Hz"), std::string::npos) << e.what();
-    }
-  }
-  for (const char* bad : {"", "8min", "-1s", "0s", "s", "8 m s"}) {
-    EXPECT_THROW(parse_duration_s(bad, "--duration"), Error) << bad;
-  }
-  for (const char* bad : {"", "65", "65,", ",90", "a,b", "65,90,1", "65;90", "nan,90"}) {
-    EXPECT_THROW(parse_pose_deg(bad, "--pose"), Error) << bad;
-  }
-}
-
 TEST(SimulateModelRun, DatasetOfTheRunReadsBack) {
   const ModelFile m = paper_model();
   ModelRunOptions o;

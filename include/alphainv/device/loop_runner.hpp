@@ -3,8 +3,8 @@
 /// The 1 kHz loop around rt::ControlLoop: absolute deadlines (clock_nanosleep, TIMER_ABSTIME),
 /// SCHED_FIFO and mlockall when permitted (a warning and a fallback when not), the transport's
 /// read and write each tick, commands into the loop and tick records out of it through lock-free
-/// SPSC rings, a writer thread that turns the records of a run into an alphainv-dataset/1 folder,
-/// and the timing statistics (wake-up latency p50/p99/p99.9/max, deadline misses, read/write
+/// SPSC rings, a writer thread that hands the records of a run to its RunRecorder (recording.hpp:
+/// the alphainv-dataset/1 folder), and the timing statistics (wake-up latency p50/p99/p99.9/max, deadline misses, read/write
 /// times).
 ///
 /// Each tick: read_latest() → ControlLoop::tick() → write() → push the record → pop commands.
@@ -16,7 +16,6 @@
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
-#include <filesystem>
 #include <functional>
 #include <map>
 #include <memory>
@@ -25,9 +24,10 @@
 #include <thread>
 #include <vector>
 
-#include "alphainv/data/dataset.hpp"
-#include "alphainv/device/transport.hpp"
 #include "alphainv/device/control_loop.hpp"
+#include "alphainv/device/recording.hpp"
+#include "alphainv/device/timing_stats.hpp"
+#include "alphainv/device/transport.hpp"
 #include "alphainv/rt/latency_histogram.hpp"
 #include "alphainv/rt/spsc_ring.hpp"
 
@@ -43,52 +43,16 @@ struct LoopCommand {
   std::uint32_t run_id = 0;  ///< kRun: the run's id (its recording, if registered)
 };
 
-/// Where and how a run is recorded.
-struct RunRecording {
-  std::filesystem::path dir;  ///< dataset folder (created; its dataset.json replaced)
-  std::string kind;           ///< "sine", "square", "step", "other"
-  double freq_hz = 0.0, amplitude_rad = 0.0;
-  std::string command_line;  ///< for dataset.json's `command_line`
-  std::string device;        ///< Transport::describe()
-  std::string model_source;  ///< "paper" or the model file
-};
-
-/// Timing statistics of a run or of the whole loop.
-struct TimingStats {
-  long ticks = 0;
-  long deadline_misses = 0;          ///< ticks whose work ended after the next deadline
-  /// Deadlines passed without a tick after those overruns (one overrun can pass several): a
-  /// run of duration D has D/period − skipped_ticks ticks.
-  long skipped_ticks = 0;
-  rt::LatencySummary latency;        ///< wake-up time minus the deadline
-  rt::LatencySummary period_jitter;  ///< |time between wake-ups − period|
-  rt::LatencySummary read;           ///< read_latest() durations
-  rt::LatencySummary write;          ///< write() durations
-  double period_s = 0.0;             ///< nominal period [s]
-  /// One JSON object (for dataset.json's `timing` and the daemon's replies).
-  std::string to_json() const;
-  /// A few human-readable lines.
-  std::string to_text() const;
-};
-
-/// What a finished run reports (to the writer's callback and wait_run()).
-struct RunResult {
-  std::uint32_t run_id = 0;
-  rt::Fault fault = rt::Fault::kNone;
-  bool stopped = false;         ///< ended by a stop request rather than its duration
-  long rows = 0;                ///< rows recorded
-  long dropped_rows = 0;        ///< rows lost because the record ring was full
-  TimingStats timing;           ///< of this run's ticks
-  std::string recording_error;  ///< why the dataset could not be written, or empty
-  std::filesystem::path dir;    ///< the dataset folder, or empty when not recorded
-};
-
 /// What request_realtime() obtained.
 struct RealtimeSetup {
   bool fifo = false;                  ///< SCHED_FIFO granted
   bool locked = false;                ///< mlockall succeeded
   bool cpu_dma_latency_zero = false;  ///< /dev/cpu_dma_latency held at 0 µs (as cyclictest does)
   std::vector<std::string> warnings;  ///< one line per refusal, with the fix
+
+  /// What was obtained, for a log line: "SCHED_FIFO, memory locked, cpu_dma_latency 0", or
+  /// "normal scheduler" and what else was granted.
+  std::string describe() const;
 };
 
 /// Asks for SCHED_FIFO at `priority` (0: don't ask) for the calling thread and, with
@@ -112,6 +76,14 @@ struct LoopOutcome {
   bool stop_requested = false;  ///< ended by the stop flag (a signal)
   double fault_t_s = 0.0;       ///< loop time of the fault [s]
   TimingStats timing;           ///< the whole loop
+
+  /// True when the loop ended without a fault (a stop request or, exit_when_idle, its run's end).
+  bool usable() const noexcept { return fault == rt::Fault::kNone; }
+  /// One line: how the loop ended and that the motor was zeroed and disabled, e.g.
+  /// "FAULT: encoder jump at t = 0.200 s; the motor command was zeroed and the motor disabled".
+  std::string brief_report() const;
+  /// brief_report() and the whole loop's timing (TimingStats::to_text()), one item a line.
+  std::string full_report() const;
 };
 
 /// The loop (see the file comment).
@@ -172,13 +144,10 @@ class LoopRunner {
   std::mutex mutex_;  // guards recordings_, partial_, results_ (never taken by the loop)
   std::condition_variable done_cv_;
   std::map<std::uint32_t, RunRecording> recordings_;
-  struct Partial {
-    std::vector<rt::TickRecord> rows;  ///< only when the run is recorded
-    rt::LatencyHistogram latency, period_jitter, read, write;
-    long ticks = 0, misses = 0, skipped = 0;
-    double run_start_s = 0.0;
-  };
-  std::map<std::uint32_t, std::unique_ptr<Partial>> partial_;
+  /// The recorder of run `run_id` in partial_, made (with its registered recording, if any) on
+  /// its first record. Call with mutex_ held.
+  RunRecorder& recorder(std::uint32_t run_id);
+  std::map<std::uint32_t, std::unique_ptr<RunRecorder>> partial_;  ///< runs not yet finished
   std::map<std::uint32_t, RunResult> results_;
 };
 

@@ -2,14 +2,11 @@
 /// \file model_simulation.hpp
 /// Simulating a run with the model of a `model.json` (what `omni_fit simulate` does): the joint
 /// model at a pose, a sine or square reference, the model's controller and simulation mode, and the
-/// result as a run of the interchange format (dataset.hpp). Plus the parsers of the command-line
-/// values ("3Hz", "500ms", "65,90"). Set-up code: allocates, throws alphainv::Error naming the
-/// field; none of it is real-time safe.
+/// result as a run of the interchange format (dataset.hpp). Set-up code: allocates, throws
+/// alphainv::Error naming the field; none of it is real-time safe.
 
 #include <optional>
 #include <string>
-#include <string_view>
-#include <utility>
 
 #include "alphainv/model/controller.hpp"
 #include "alphainv/data/dataset.hpp"
@@ -80,15 +77,5 @@ Dataset model_run_dataset(const ModelFile& model, const ModelRun& run, double sa
 
 /// The PID law as the interchange format writes it (the inverse of to_controller).
 ControllerConfig to_controller_config(const Controller& controller);
-
-// --- command-line values ------------------------------------------------------------------------
-
-/// "3Hz", "0.25 Hz", "3" → 3 [Hz]; "1kHz" → 1000. Finite, > 0. Throws alphainv::Error naming
-/// `field`.
-double parse_frequency_hz(std::string_view text, const std::string& field);
-/// "8s", "500ms", "8" (seconds) → [s]. Finite, > 0. Throws alphainv::Error naming `field`.
-double parse_duration_s(std::string_view text, const std::string& field);
-/// "65,90" → (γ1, γ2) [deg]. Both finite. Throws alphainv::Error naming `field`.
-std::pair<double, double> parse_pose_deg(std::string_view text, const std::string& field);
 
 }  // namespace alphainv
