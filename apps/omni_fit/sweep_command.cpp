@@ -13,6 +13,7 @@
 #include "alphainv/diagnose/diagnose.hpp"
 #include "alphainv/error.hpp"
 #include "alphainv/simulate/experiment_plan.hpp"
+#include "apps/common/exit_code.hpp"
 #include "plots.hpp"
 
 namespace omni_fit {
@@ -101,7 +102,7 @@ CLI::App* add_sweep_subcommand(CLI::App& app, SweepCommandOptions& o) {
               "parameters (cogging period 0.012-0.03 rad and phase, gravity theta0 within "
               "+-0.5 rad); default: fixed ones");
   c->add_flag("--require", o.require,
-              "exit 1 unless every case names its effect (cutting the RMS error by >= 30 %) and "
+              "exit 3 unless every case names its effect (cutting the RMS error by >= 30 %) and "
               "every effect-free case says none");
   c->add_flag("--json", o.json, "print the cases as one JSON object");
   c->add_option("--threads", o.threads, "threads (default: all cores)");
@@ -120,7 +121,7 @@ int run_sweep(const SweepCommandOptions& o) {
     for (const auto& n : o.effects) kinds.push_back(effect_kind_from_name(n, "--effects"));
   } catch (const Error& e) {
     std::fprintf(stderr, "omni_fit sweep: %s\n", e.what());
-    return 1;
+    return apps::exit_status(apps::ExitCode::kUsage);
   }
   if (kinds.empty()) kinds.assign(kAllEffectKinds.begin(), kAllEffectKinds.end());
   const std::vector<double> noises = o.quick ? std::vector<double>{5e-5} : std::vector<double>{5e-5, 2e-4};
@@ -230,7 +231,7 @@ int run_sweep(const SweepCommandOptions& o) {
       write_text_atomic(o.out_file, md.str());
     } catch (const std::exception& e) {
       std::fprintf(stderr, "omni_fit sweep: %s\n", e.what());
-      return 2;
+      return apps::exit_status(apps::ExitCode::kBadInput);
     }
   }
   if (o.json) {
@@ -241,7 +242,7 @@ int run_sweep(const SweepCommandOptions& o) {
     std::printf("%s\n", j.dump().c_str());
   }
   const bool all_good = right == static_cast<int>(cases.size()) && cut_ok == named_effect;
-  return (o.require && !all_good) ? 1 : 0;
+  return apps::exit_status(o.require && !all_good ? apps::ExitCode::kFailed : apps::ExitCode::kOk);
 }
 
 }  // namespace omni_fit

@@ -2,7 +2,8 @@
 //   omni_gen paper -o DIR [--seed N] [--effect NAME:PARAM=VALUE ...] [--noise-std RAD]
 //                         [--quantisation RAD] [--no-coulomb] [--truth-columns]
 // A thin layer over alphainv::make_experiment_plan / generate_dataset / write_dataset.
-// Every error prints one line on stderr naming the option and exits with code 2.
+// Every error prints one line on stderr naming the option; exit codes as the other apps
+// (apps/common/exit_code.hpp): 1 a bad command line, 2 a rejected value or an unwritable output.
 #include <CLI/CLI.hpp>
 #include <charconv>
 #include <chrono>
@@ -18,6 +19,7 @@
 #include "alphainv/data/dataset.hpp"
 #include "alphainv/error.hpp"
 #include "alphainv/simulate/experiment_plan.hpp"
+#include "apps/common/exit_code.hpp"
 
 namespace {
 
@@ -41,7 +43,7 @@ std::string option_for_field(const std::string& field) {
 
 int fail(const std::string& option, const std::string& message) {
   std::fprintf(stderr, "omni_gen: %s: %s\n", option.c_str(), message.c_str());
-  return 2;
+  return apps::exit_status(apps::ExitCode::kBadInput);
 }
 
 /// The command line, each argument quoted for a POSIX shell where needed.
@@ -152,7 +154,7 @@ int run_paper(const PaperArgs& args, const std::string& cmd) {
       args.out_dir.c_str(), plan.runs.size(), sines, plan.runs.size() - sines, rows,
       static_cast<double>(bytes) / 1e6, bytes, std::chrono::duration<double>(t1 - t0).count(),
       std::chrono::duration<double>(t2 - t1).count());
-  return 0;
+  return apps::exit_status(apps::ExitCode::kOk);
 }
 
 }  // namespace
@@ -231,8 +233,8 @@ int main(int argc, char** argv) {
     std::fprintf(stderr,
                  "omni_gen: %s\nRun 'omni_gen --help' or 'omni_gen paper --help' for usage.\n",
                  e.what());
-    return 2;
+    return apps::exit_status(apps::ExitCode::kUsage);
   }
   if (paper->parsed()) return run_paper(args, command_line(argc, argv));
-  return 2;
+  return apps::exit_status(apps::ExitCode::kUsage);
 }
