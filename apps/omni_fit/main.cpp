@@ -10,6 +10,7 @@
 #include "fit_command.hpp"
 #include "simulate_command.hpp"
 #include "sweep_command.hpp"
+#include "validate_command.hpp"
 
 int main(int argc, char** argv) {
   CLI::App app{"omni_fit: identify and simulate alpha-invariant joint models"};
@@ -51,6 +52,8 @@ int main(int argc, char** argv) {
   CLI::App* diagc = omni_fit::add_diagnose_subcommand(app, dgo);
   omni_fit::SweepCommandOptions swo;
   CLI::App* sweepc = omni_fit::add_sweep_subcommand(app, swo);
+  omni_fit::ValidateCommandOptions vao;
+  CLI::App* valc = omni_fit::add_validate_subcommand(app, vao);
   app.footer("Examples:\n  omni_fit fit data/omni_yaw_sim -o out/fit --json\n"
              "  omni_fit fit data/omni_yaw_sim -o out/fit-fx --effect coulomb_friction:coulomb_v=0.004\n"
              "  omni_fit fit data/omni_yaw_sim -o out/fit-fx --effects-from out/diag/model.json\n"
@@ -71,5 +74,6 @@ int main(int argc, char** argv) {
   if (*simc) return omni_fit::run_simulate(so);
   if (*diagc) return omni_fit::run_diagnose(dgo);
   if (*sweepc) return omni_fit::run_sweep(swo);
+  if (*valc) return omni_fit::run_validate(vao);
   return alphainv::apps::exit_status(alphainv::apps::ExitCode::kOk);
 }

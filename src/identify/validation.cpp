@@ -160,7 +160,7 @@ ValidationResult validate_model(const ModelFile& model, const Dataset& dataset,
   for (std::size_t i = 0; i < res.runs.size(); ++i) {
     const ValidatedRun& r = res.runs[i];
     if (!r.ok) continue;
-    if (res.model_note.empty()) res.model_note = notes[i];
+    if (res.model_note.empty()) res.model_note = "first run (" + r.file + "): " + notes[i];
     pos.push_back(r.position);
     cmd.push_back(r.command);
     if (r.residual.valid) {

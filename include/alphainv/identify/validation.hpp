@@ -51,7 +51,7 @@ struct ValidatedRun {
 struct ValidationResult {
   bool ok = false;      ///< at least one run validated
   std::string message;  ///< why not ok
-  std::string model_note;  ///< which model was used (inertia model or nearest pose, α or linear)
+  std::string model_note;  ///< which model the first validated run used (inertia model or nearest pose, α or linear)
   std::vector<ValidatedRun> runs;
   FitFigures position;  ///< θ pooled over all samples of the validated runs
   FitFigures command;   ///< v pooled
