@@ -249,7 +249,7 @@ ModelFile make_model_file(const Dataset& ds, const DatasetFit& fit) {
   model.dataset_path = fs::absolute(ds.dir).string();
   model.position_unit = ds.position_unit;
   model.command_unit = ds.command_unit;
-  model.controller = to_controller(ds.runs.front().controller);
+  model.controller = ds.runs.front().controller;
   model.has_inertia_model = fit.has_inertia_model;
   if (fit.has_inertia_model) {
     model.linear = fit.inertia.model;

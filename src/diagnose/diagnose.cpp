@@ -1353,7 +1353,7 @@ std::vector<DiagnoseRun> diagnose_runs(const Dataset& dataset, const std::vector
       if (en != nullptr && std::find(en->begin(), en->end(), 0.0) != en->end()) continue;
       DiagnoseRun r;
       r.data = &d;
-      r.controller = to_controller(dataset.runs[i].controller);
+      r.controller = dataset.runs[i].controller;
       r.model = m;
       r.name = dataset.runs[i].file;
       r.kind = dataset.runs[i].kind;

@@ -221,18 +221,6 @@ void identifiability_notes(DatasetFit& fit) {
 
 }  // namespace
 
-Controller to_controller(const ControllerConfig& config) {
-  Controller c;
-  c.kp = config.kp;
-  c.ki = config.ki;
-  c.kd = config.kd;
-  c.derivative_on = config.derivative_on == ControllerConfig::DerivativeOn::Measurement
-                        ? DerivativeOn::kMeasurement
-                        : DerivativeOn::kError;
-  if (config.v_limit) c.v_limit = *config.v_limit;
-  return c;
-}
-
 JointModelAtPose DatasetFit::model_for_pose(std::size_t pose) const {
   JointModelAtPose m;
   const PoseFit& p = poses[pose];
@@ -321,7 +309,7 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
     progress("local fits", i, n_runs);
     const RunInfo& run = dataset.runs[i];
     if (!is_periodic_kind(run)) continue;
-    const Controller ctl = to_controller(run.controller);
+    const Controller& ctl = run.controller;
     if (!(ctl.kp > 0.0) || ctl.ki != 0.0 || ctl.kd != 0.0) {
       ++skipped_controller;
       continue;
@@ -553,7 +541,7 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
           rv.message = "torque_enable = 0 in part of the run (free fall): not simulated";
           continue;
         }
-        const Controller ctl = to_controller(run.controller);
+        const Controller& ctl = run.controller;
         const SampledReference ref(d.t, d.r);
         const InitialState x0 = initial_state_of(d);
         m.use_alpha = false;

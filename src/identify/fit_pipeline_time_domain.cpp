@@ -35,7 +35,7 @@ void add_time_domain_fit(const Dataset& dataset, const std::vector<RunData>& dat
         ++torque_off;
         continue;
       }
-      const Controller ctl = to_controller(dataset.runs[i].controller);
+      const Controller& ctl = dataset.runs[i].controller;
       if (!(ctl.kp > 0.0)) {
         ++not_p;
         continue;

@@ -26,9 +26,6 @@
 
 namespace alphainv {
 
-/// The PID law of a run as the simulator takes it.
-Controller to_controller(const ControllerConfig& config);
-
 /// Settings of fit_dataset().
 struct FitPipelineOptions {
   double settle_fraction = 0.5;   ///< sine runs: the first fraction of the run is transient
