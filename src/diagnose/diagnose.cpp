@@ -1368,7 +1368,7 @@ DiagnoseResult diagnose_dataset(const Dataset& dataset, const std::vector<RunDat
                                 DiagnoseOptions options, const FitPipelineOptions& fit_options,
                                 DatasetFit* fit_out) {
   FitPipelineOptions fo = fit_options;
-  fo.validate = false;
+  fo.run_validation = false;
   if (fo.threads == 0) fo.threads = options.threads;
   DatasetFit fit = fit_dataset(dataset, data, fo);
   options.simulation = fit.simulation;

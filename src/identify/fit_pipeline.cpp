@@ -12,6 +12,7 @@
 #include "alphainv/identify/fit_stages.hpp"
 #include "alphainv/identify/metrics.hpp"
 #include "alphainv/identify/output_error.hpp"
+#include "alphainv/model/detail/field_checks.hpp"
 #include "alphainv/simulate/reference.hpp"
 #include "fit_pipeline_internal.hpp"
 
@@ -292,6 +293,30 @@ void local_point_notes(const FitPipelineOptions& options, std::size_t skipped_co
 }
 
 }  // namespace
+
+void FitPipelineOptions::validate() const {
+  if (!(settle_fraction >= 0.0 && settle_fraction < 1.0)) {
+    detail::bad("FitPipelineOptions::settle_fraction", "a fraction in [0, 1)", settle_fraction);
+  }
+  if (n_breakpoints < 2 || n_breakpoints > kMaxBreakpoints) {
+    detail::bad("FitPipelineOptions::n_breakpoints",
+                "2 to " + std::to_string(kMaxBreakpoints) + " breakpoints",
+                static_cast<double>(n_breakpoints));
+  }
+  if (!std::isnan(loop_period_s) && !(loop_period_s >= 0.0 && std::isfinite(loop_period_s))) {
+    detail::bad("FitPipelineOptions::loop_period_s",
+                "NaN (from the sample rate), 0 (off) or a period > 0 [s]", loop_period_s);
+  }
+  validate_effects(effects, "FitPipelineOptions::effects.");
+}
+
+bool DatasetFit::usable() const {
+  if (alpha.ok) return true;
+  for (const PoseFit& p : poses) {
+    if (p.linear.valid) return true;
+  }
+  return false;
+}
 
 JointModelAtPose DatasetFit::model_for_pose(std::size_t pose) const {
   JointModelAtPose m;
@@ -672,9 +697,28 @@ void summarise_validation(const Dataset& dataset, DatasetFit& fit) {
   }
 }
 
+void describe_fit(DatasetFit& fit) {
+  if (!fit.usable()) {
+    fit.message = "no model could be identified: no pose has a linear model and there is no "
+                  "α-model (the notes say why)";
+    return;
+  }
+  std::size_t modelled = 0, from_sine = 0;
+  for (const PoseFit& p : fit.poses) {
+    modelled += p.linear.valid || (fit.has_inertia_model && p.gamma1_deg) ? 1 : 0;
+    from_sine += p.linear.valid && p.linear_source == "sine (22)" ? 1 : 0;
+  }
+  fit.message = "identified: a linear model at " + std::to_string(modelled) + " of " +
+                std::to_string(fit.poses.size()) + " poses (" + std::to_string(from_sine) +
+                " by the sine runs (22)" +
+                (fit.has_inertia_model ? ", every pose with angles by the inertia model (27)-(29))"
+                                       : ", no inertia model)") +
+                (fit.alpha.ok ? ", the α-model (" + fit.alpha_source + ")" : ", no α-model");
+}
+
 DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
                        const FitPipelineOptions& options) {
-  validate_effects(options.effects, "FitPipelineOptions::effects.");
+  options.validate();
   DatasetFit fit;
   group_runs_by_pose(dataset, fit);
   fit_local_linear_points(dataset, data, options, fit);
@@ -683,10 +727,11 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
   fit_alpha_invariant_model(options, fit);
   choose_model_simulation(data, options, fit);
   if (options.time_domain) fit_time_domain_poses(dataset, data, options, fit);
-  if (options.validate) {
+  if (options.run_validation) {
     simulate_validation_runs(dataset, data, options, fit);
     summarise_validation(dataset, fit);
   }
+  describe_fit(fit);
   return fit;
 }
 

@@ -18,6 +18,7 @@
 
 #include "alphainv/data/dataset.hpp"
 #include "alphainv/error.hpp"
+#include "support/error_of.hpp"
 
 namespace alphainv {
 namespace {
@@ -34,16 +35,7 @@ void write_text(const fs::path& path, const std::string& text) {
   ASSERT_TRUE(out.good()) << path;
 }
 
-/// Runs f and returns the alphainv::Error it throws (a failure if it throws none).
-Error error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e;
-  }
-  ADD_FAILURE() << "expected alphainv::Error, none thrown";
-  return Error("no error thrown");
-}
+using test::error_of;
 
 void expect_contains(const std::string& text, const std::vector<std::string>& parts) {
   for (const auto& part : parts) {

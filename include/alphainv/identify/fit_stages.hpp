@@ -11,6 +11,7 @@
 ///   7. fit_time_domain_poses()      output error for poses without sine runs (time_domain_fit.hpp)
 ///   8. simulate_validation_runs()   every run simulated with both models (section 2.4)
 ///   9. summarise_validation()       Table 8 and Table 11 figures from those simulations
+///  10. describe_fit()               DatasetFit::message: what was identified
 /// Each stage reads what the stages before it left in `fit` and adds its own part and its notes;
 /// run in this order on the same options they give fit_dataset()'s result bit for bit. They are
 /// API so that one section can be run, tested or replaced alone (e.g. section 2.2 without an
@@ -99,5 +100,9 @@ void simulate_validation_runs(const Dataset& dataset, const std::vector<RunData>
 /// median relative position error over all simulated runs. Sets the ModelErrors of every pose and
 /// of `fit`, and notes when the models clearly miss an effect. Needs stage 8.
 void summarise_validation(const Dataset& dataset, DatasetFit& fit);
+
+/// Stage 10: `fit.message`, one line on what was identified (the poses with a linear model and
+/// how, the inertia model, the α-model and how), or that nothing could be.
+void describe_fit(DatasetFit& fit);
 
 }  // namespace alphainv
