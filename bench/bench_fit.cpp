@@ -61,7 +61,7 @@ void BM_FitDataset(benchmark::State& state) {
   if (!have_dataset()) return state.SkipWithError(kMissing);
   const Loaded& l = loaded();
   FitPipelineOptions opt;
-  opt.validate = state.range(0) == 1;
+  opt.run_validation = state.range(0) == 1;
   opt.threads = 2;
   for (auto _ : state) {
     const DatasetFit fit = fit_dataset(l.ds, l.data, opt);

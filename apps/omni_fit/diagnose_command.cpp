@@ -221,7 +221,7 @@ int run_diagnose(const DiagnoseCommandOptions& o) {
       for (std::size_t i = 0; i < ds.runs.size(); ++i) {
         DiagnoseRun r;
         r.data = &data[i];
-        r.controller = to_controller(ds.runs[i].controller);
+        r.controller = ds.runs[i].controller;
         r.model = model_at(model, ds.runs[i].gamma1_deg, ds.runs[i].gamma2_deg, model.has_alpha_model);
         r.name = ds.runs[i].file;
         r.kind = ds.runs[i].kind;

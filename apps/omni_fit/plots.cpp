@@ -552,7 +552,7 @@ class Plotter {
       why = "no linear model at this run's pose";
       return false;
     }
-    const Controller ctl = to_controller(ds_.runs[i].controller);
+    const Controller ctl = ds_.runs[i].controller;
     const SampledReference ref(d.t, d.r);
     const InitialState x0 = initial_state_of(d);  // as the validation does
     m.use_alpha = false;

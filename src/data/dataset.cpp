@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <system_error>
@@ -395,16 +396,16 @@ class IndexReader {
   }
 
   /// Applies a `controller` object (keys absent keep their value in `c`); `parent` is its path.
-  void apply_controller(const json& obj, const std::string& parent, ControllerConfig& c) const {
+  void apply_controller(const json& obj, const std::string& parent, Controller& c) const {
     expect_object(obj, parent);
     if (auto x = optional_number(obj, "kp", parent)) c.kp = *x;
     if (auto x = optional_number(obj, "ki", parent)) c.ki = *x;
     if (auto x = optional_number(obj, "kd", parent)) c.kd = *x;
     if (auto s = optional_string(obj, "derivative_on", parent)) {
       if (*s == "error") {
-        c.derivative_on = ControllerConfig::DerivativeOn::Error;
+        c.derivative_on = DerivativeOn::kError;
       } else if (*s == "measurement") {
-        c.derivative_on = ControllerConfig::DerivativeOn::Measurement;
+        c.derivative_on = DerivativeOn::kMeasurement;
       } else {
         fail("expected \"error\" or \"measurement\", found " + quote(*s),
              path(parent, "derivative_on"));
@@ -413,7 +414,8 @@ class IndexReader {
     const auto it = obj.find("v_limit");
     if (it != obj.end()) {
       if (it->is_null()) {
-        c.v_limit.reset();  // explicit null: no limit (also overrides an inherited one)
+        // explicit null: no limit (also overrides an inherited one)
+        c.v_limit = std::numeric_limits<double>::infinity();
       } else {
         const std::string key = path(parent, "v_limit");
         const double x = number(*it, key);
@@ -426,7 +428,7 @@ class IndexReader {
 
   /// Applies `controller` then the `kp` shorthand of `object` (the top level or a run) to `c`.
   void apply_controller_keys(const json& object, const std::string& parent,
-                             ControllerConfig& c) const {
+                             Controller& c) const {
     const json* controller = find(object, "controller");
     if (controller != nullptr) apply_controller(*controller, path(parent, "controller"), c);
     if (auto kp = optional_number(object, "kp", parent)) {
@@ -460,7 +462,7 @@ class IndexReader {
       fail("expected the path of a run CSV file, found the index dataset.json itself", key);
   }
 
-  RunInfo run(const json& obj, std::size_t i, const ControllerConfig& base) const {
+  RunInfo run(const json& obj, std::size_t i, const Controller& base) const {
     const std::string parent = "runs[" + std::to_string(i) + "]";
     expect_object(obj, parent);
     RunInfo info;
@@ -840,14 +842,14 @@ std::string format_dataset_index(const Dataset& ds) {
     if (!extra.is_object()) throw Error("expected a JSON object", file, 0, what);
     return extra;
   };
-  auto controller_json = [](const json& base, const ControllerConfig& c) {
+  auto controller_json = [](const json& base, const Controller& c) {
     json out = json::object();
     out["kp"] = c.kp;
     out["ki"] = c.ki;
     out["kd"] = c.kd;
     out["derivative_on"] =
-        c.derivative_on == ControllerConfig::DerivativeOn::Measurement ? "measurement" : "error";
-    out["v_limit"] = c.v_limit ? json(*c.v_limit) : json(nullptr);
+        c.derivative_on == DerivativeOn::kMeasurement ? "measurement" : "error";
+    out["v_limit"] = c.has_limit() ? json(c.v_limit) : json(nullptr);
     if (base.is_object()) {  // keys of the format's future, or a lab's own, kept after ours
       for (const auto& [key, value] : base.items()) {
         if (!out.contains(key)) out[key] = value;
@@ -890,7 +892,7 @@ std::string format_dataset_index(const Dataset& ds) {
                          ? run_extra["controller"]
                          : json::object();
     for (const std::string_view key : kControllerKeys) overrides.erase(std::string(key));
-    const ControllerConfig& c = run.controller;
+    const Controller& c = run.controller;
     const json full = controller_json(json(), c);
     if (c.kp != ds.controller.kp) overrides["kp"] = full["kp"];
     if (c.ki != ds.controller.ki) overrides["ki"] = full["ki"];

@@ -1228,7 +1228,7 @@ std::vector<DiagnoseRun> diagnose_runs(const Dataset& dataset, const std::vector
       if (en != nullptr && std::find(en->begin(), en->end(), 0.0) != en->end()) continue;
       DiagnoseRun r;
       r.data = &d;
-      r.controller = to_controller(dataset.runs[i].controller);
+      r.controller = dataset.runs[i].controller;
       r.model = m;
       r.name = dataset.runs[i].file;
       r.kind = dataset.runs[i].kind;
@@ -1243,7 +1243,7 @@ DiagnoseResult diagnose_dataset(const Dataset& dataset, const std::vector<RunDat
                                 DiagnoseOptions options, const FitPipelineOptions& fit_options,
                                 DatasetFit* fit_out) {
   FitPipelineOptions fo = fit_options;
-  fo.validate = false;
+  fo.run_validation = false;
   if (fo.threads == 0) fo.threads = options.threads;
   DatasetFit fit = fit_dataset(dataset, data, fo);
   options.simulation = fit.simulation;

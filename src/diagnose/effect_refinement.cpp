@@ -80,7 +80,7 @@ DatasetFit refine_effects(const Dataset& dataset, const std::vector<RunData>& da
   r = EffectRefinement{};
   r.start = r.refined = options.effects;
   FitPipelineOptions o = options;
-  o.validate = true;
+  o.run_validation = true;
   DatasetFit start_fit = fit_dataset(dataset, data, o);
   r.evaluations = 1;
   r.sse_start = r.sse_refined = alpha_sse(start_fit, &r.runs_scored);

@@ -9,8 +9,10 @@
 #include <mutex>
 
 #include "alphainv/identify/effect_sine_point.hpp"
+#include "alphainv/identify/fit_stages.hpp"
 #include "alphainv/identify/metrics.hpp"
 #include "alphainv/identify/output_error.hpp"
+#include "alphainv/model/detail/field_checks.hpp"
 #include "alphainv/simulate/reference.hpp"
 #include "common/parallel_for.hpp"
 #include "fit_pipeline_internal.hpp"
@@ -219,75 +221,11 @@ void identifiability_notes(DatasetFit& fit) {
   }
 }
 
-}  // namespace
 
-Controller to_controller(const ControllerConfig& config) {
-  Controller c;
-  c.kp = config.kp;
-  c.ki = config.ki;
-  c.kd = config.kd;
-  c.derivative_on = config.derivative_on == ControllerConfig::DerivativeOn::Measurement
-                        ? DerivativeOn::kMeasurement
-                        : DerivativeOn::kError;
-  if (config.v_limit) c.v_limit = *config.v_limit;
-  return c;
-}
-
-JointModelAtPose DatasetFit::model_for_pose(std::size_t pose) const {
-  JointModelAtPose m;
-  const PoseFit& p = poses[pose];
-  m.inertia = p.inertia;
-  if (has_inertia_model) {
-    m.c_linear = inertia.model.damping(p.inertia);
-    m.beta_tilde_linear = inertia.model.beta_tilde(p.inertia);
-  } else {
-    m.c_linear = p.linear.c_linear;
-    m.beta_tilde_linear = p.linear.beta_tilde_linear;
-  }
-  m.alpha = alpha.model;
-  m.use_alpha = alpha.ok;
-  m.effects = effects;
-  return m;
-}
-
-DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
-                       const FitPipelineOptions& options) {
-  validate_effects(options.effects, "FitPipelineOptions::effects.");
-  DatasetFit fit;
-  const std::size_t n_runs = dataset.runs.size();
-  std::mutex progress_mutex;
-  auto progress = [&](std::string_view stage, std::size_t done, std::size_t total) {
-    if (!options.progress) return;
-    const std::lock_guard<std::mutex> lock(progress_mutex);
-    options.progress(stage, done, total);
-  };
-
-  // --- poses: runs grouped by their measured (γ1, γ2), rounded to 0.01° -----------------------
-  std::map<std::pair<long, long>, std::size_t> pose_index;
-  std::vector<std::size_t> run_pose(n_runs);
-  for (std::size_t i = 0; i < n_runs; ++i) {
-    const RunInfo& run = dataset.runs[i];
-    const bool has_pose = run.gamma1_deg && run.gamma2_deg;
-    const std::pair<long, long> key =
-        has_pose ? std::make_pair(std::lround(*run.gamma1_deg * 100), std::lround(*run.gamma2_deg * 100))
-                 : std::make_pair(std::numeric_limits<long>::min(), 0L);
-    auto it = pose_index.find(key);
-    if (it == pose_index.end()) {
-      it = pose_index.emplace(key, fit.poses.size()).first;
-      PoseFit p;
-      if (has_pose) {
-        p.gamma1_deg = run.gamma1_deg;
-        p.gamma2_deg = run.gamma2_deg;
-      }
-      fit.poses.push_back(p);
-    }
-    run_pose[i] = it->second;
-    fit.poses[it->second].runs.push_back(i);
-  }
-
-  // --- local linear points (14)-(20), (36) per sine run ------------------------------------------
-  // A digital loop (controller tick T, command held) biases (19)-(20); local_linear_point() undoes
-  // it exactly when T is known: from the options, else from the dataset's sample rate.
+/// Stage 2's set-up: the digital-loop period T of the correction of (19)-(20) (from the options,
+/// else from the dataset's sample rate) and the known effects, each with its note.
+void set_loop_period_and_effects(const Dataset& dataset, const FitPipelineOptions& options,
+                                 DatasetFit& fit) {
   if (std::isnan(options.loop_period_s)) {
     fit.loop_period_s = dataset.sample_rate_hz && *dataset.sample_rate_hz > 0.0
                             ? 1.0 / *dataset.sample_rate_hz
@@ -314,14 +252,141 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
         "effect_sine_point.hpp) instead of against the command; the α_data are the command's "
         "(36). Every simulation (validation, time-domain fit) includes these effects");
   }
-  std::size_t off_rate_runs = 0;
+}
+
+/// Stage 2's notes on what the local points could not use, and why.
+void local_point_notes(const FitPipelineOptions& options, std::size_t skipped_controller,
+                       std::size_t off_rate_runs, DatasetFit& fit) {
+  if (skipped_controller > 0) {
+    fit.notes.push_back(std::to_string(skipped_controller) +
+                        " sine run(s) were not under a pure P law (kp > 0, ki = kd = 0), which the "
+                        "local linear model (19)-(20) assumes; they were left out of identification");
+  }
+  std::size_t first_order = 0;
+  for (const auto& sp : fit.sine_points) {
+    first_order += sp.point.sample_period_s > 0.0 && sp.point.physical && !sp.point.sampled_exact;
+  }
+  if (first_order > 0) {
+    fit.notes.push_back(std::to_string(first_order) +
+                        " sine point(s): the exact sampled-data inversion did not converge; the "
+                        "first-order correction C = (C_data + ω²T/2)/(1 − C_data·T/2) was used");
+  }
+  if (off_rate_runs > 0) {
+    fit.notes.push_back(std::to_string(off_rate_runs) +
+                        " sine run(s) are not sampled at the loop period T: the digital-loop "
+                        "correction assumes one controller tick per sample; check sample_rate_hz");
+  }
+  std::size_t n_nonphysical = 0;
+  for (const auto& sp : fit.sine_points) n_nonphysical += sp.point.physical ? 0 : 1;
+  if (n_nonphysical > 0) {
+    fit.notes.push_back(std::to_string(n_nonphysical) +
+                        " sine point(s) are non-physical (A1² + A2(A2 − Ar) ≤ 0: negative C_data, "
+                        "β_data) and were excluded, as the paper does");
+  }
+  if (fit.sine_points.empty()) {
+    fit.notes.push_back(options.time_domain
+                            ? "no sine runs with freq_hz under a P law: the local points (19)-(20) "
+                              "and the global fit (22) need them; the models are identified in the "
+                              "time domain instead"
+                            : "no sine runs with freq_hz under a P law: no local or global linear "
+                              "model, no α-invariant model can be identified from this dataset");
+  }
+}
+
+}  // namespace
+
+void FitPipelineOptions::validate() const {
+  if (!(settle_fraction >= 0.0 && settle_fraction < 1.0)) {
+    detail::bad("FitPipelineOptions::settle_fraction", "a fraction in [0, 1)", settle_fraction);
+  }
+  if (n_breakpoints < 2 || n_breakpoints > kMaxBreakpoints) {
+    detail::bad("FitPipelineOptions::n_breakpoints",
+                "2 to " + std::to_string(kMaxBreakpoints) + " breakpoints",
+                static_cast<double>(n_breakpoints));
+  }
+  if (!std::isnan(loop_period_s) && !(loop_period_s >= 0.0 && std::isfinite(loop_period_s))) {
+    detail::bad("FitPipelineOptions::loop_period_s",
+                "NaN (from the sample rate), 0 (off) or a period > 0 [s]", loop_period_s);
+  }
+  validate_effects(effects, "FitPipelineOptions::effects.");
+}
+
+bool DatasetFit::usable() const {
+  if (alpha.ok) return true;
+  for (const PoseFit& p : poses) {
+    if (p.linear.valid) return true;
+  }
+  return false;
+}
+
+JointModelAtPose DatasetFit::model_for_pose(std::size_t pose) const {
+  JointModelAtPose m;
+  const PoseFit& p = poses[pose];
+  m.inertia = p.inertia;
+  if (has_inertia_model) {
+    m.c_linear = inertia.model.damping(p.inertia);
+    m.beta_tilde_linear = inertia.model.beta_tilde(p.inertia);
+  } else {
+    m.c_linear = p.linear.c_linear;
+    m.beta_tilde_linear = p.linear.beta_tilde_linear;
+  }
+  m.alpha = alpha.model;
+  m.use_alpha = alpha.ok;
+  m.effects = effects;
+  return m;
+}
+
+void group_runs_by_pose(const Dataset& dataset, DatasetFit& fit) {
+  const std::size_t n_runs = dataset.runs.size();
+  std::map<std::pair<long, long>, std::size_t> pose_index;
+  for (std::size_t i = 0; i < n_runs; ++i) {
+    const RunInfo& run = dataset.runs[i];
+    const bool has_pose = run.gamma1_deg && run.gamma2_deg;
+    const std::pair<long, long> key =
+        has_pose ? std::make_pair(std::lround(*run.gamma1_deg * 100), std::lround(*run.gamma2_deg * 100))
+                 : std::make_pair(std::numeric_limits<long>::min(), 0L);
+    auto it = pose_index.find(key);
+    if (it == pose_index.end()) {
+      it = pose_index.emplace(key, fit.poses.size()).first;
+      PoseFit p;
+      if (has_pose) {
+        p.gamma1_deg = run.gamma1_deg;
+        p.gamma2_deg = run.gamma2_deg;
+      }
+      fit.poses.push_back(p);
+    }
+    fit.poses[it->second].runs.push_back(i);
+  }
+}
+
+std::vector<std::size_t> pose_of_runs(const DatasetFit& fit, std::size_t n_runs) {
+  std::vector<std::size_t> run_pose(n_runs);
+  for (std::size_t p = 0; p < fit.poses.size(); ++p) {
+    for (std::size_t i : fit.poses[p].runs) run_pose.at(i) = p;
+  }
+  return run_pose;
+}
+
+std::vector<std::vector<LocalLinearPoint>> points_by_pose(const DatasetFit& fit) {
   std::vector<std::vector<LocalLinearPoint>> pose_points(fit.poses.size());
+  for (const SineRunPoint& sp : fit.sine_points) pose_points.at(sp.pose).push_back(sp.point);
+  return pose_points;
+}
+
+void fit_local_linear_points(const Dataset& dataset, const std::vector<RunData>& data,
+                             const FitPipelineOptions& options, DatasetFit& fit) {
+  const std::size_t n_runs = dataset.runs.size();
+  const std::vector<std::size_t> run_pose = pose_of_runs(fit, n_runs);
+  detail::ProgressReporter progress(options);
+  set_loop_period_and_effects(dataset, options, fit);
+  const bool known_effects = !active_effects(fit.effects).empty();
+  std::size_t off_rate_runs = 0;
   std::size_t skipped_controller = 0;
   for (std::size_t i = 0; i < n_runs; ++i) {
     progress("local fits", i, n_runs);
     const RunInfo& run = dataset.runs[i];
     if (!is_periodic_kind(run)) continue;
-    const Controller ctl = to_controller(run.controller);
+    const Controller& ctl = run.controller;
     if (!(ctl.kp > 0.0) || ctl.ki != 0.0 || ctl.kd != 0.0) {
       ++skipped_controller;
       continue;
@@ -357,45 +422,13 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
     sp.gain = a0 / ar;
     sp.phase_deg = rad_to_deg(phi);
     fit.sine_points.push_back(sp);
-    pose_points[sp.pose].push_back(sp.point);
   }
   progress("local fits", n_runs, n_runs);
-  if (skipped_controller > 0) {
-    fit.notes.push_back(std::to_string(skipped_controller) +
-                        " sine run(s) were not under a pure P law (kp > 0, ki = kd = 0), which the "
-                        "local linear model (19)-(20) assumes; they were left out of identification");
-  }
-  std::size_t first_order = 0;
-  for (const auto& sp : fit.sine_points) {
-    first_order += sp.point.sample_period_s > 0.0 && sp.point.physical && !sp.point.sampled_exact;
-  }
-  if (first_order > 0) {
-    fit.notes.push_back(std::to_string(first_order) +
-                        " sine point(s): the exact sampled-data inversion did not converge; the "
-                        "first-order correction C = (C_data + ω²T/2)/(1 − C_data·T/2) was used");
-  }
-  if (off_rate_runs > 0) {
-    fit.notes.push_back(std::to_string(off_rate_runs) +
-                        " sine run(s) are not sampled at the loop period T: the digital-loop "
-                        "correction assumes one controller tick per sample; check sample_rate_hz");
-  }
-  std::size_t n_nonphysical = 0;
-  for (const auto& sp : fit.sine_points) n_nonphysical += sp.point.physical ? 0 : 1;
-  if (n_nonphysical > 0) {
-    fit.notes.push_back(std::to_string(n_nonphysical) +
-                        " sine point(s) are non-physical (A1² + A2(A2 − Ar) ≤ 0: negative C_data, "
-                        "β_data) and were excluded, as the paper does");
-  }
-  if (fit.sine_points.empty()) {
-    fit.notes.push_back(options.time_domain
-                            ? "no sine runs with freq_hz under a P law: the local points (19)-(20) "
-                              "and the global fit (22) need them; the models are identified in the "
-                              "time domain instead"
-                            : "no sine runs with freq_hz under a P law: no local or global linear "
-                              "model, no α-invariant model can be identified from this dataset");
-  }
+  local_point_notes(options, skipped_controller, off_rate_runs, fit);
+}
 
-  // --- global linear model (22) per pose, on a band around the resonance ------------------------
+void fit_global_linear_models(DatasetFit& fit) {
+  const std::vector<std::vector<LocalLinearPoint>> pose_points = points_by_pose(fit);
   for (std::size_t p = 0; p < fit.poses.size(); ++p) {
     const auto& pts = pose_points[p];
     if (pts.empty()) continue;
@@ -431,8 +464,10 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
     }
     if (pose.linear.valid) pose.linear_source = "sine (22)";
   }
+}
 
-  // --- inertia model (27)-(29) across poses -------------------------------------------------------
+void fit_inertia_across_poses(const FitPipelineOptions& options, DatasetFit& fit) {
+  detail::ProgressReporter progress(options);
   std::vector<InertiaPose> ipose;
   for (const PoseFit& pose : fit.poses) {
     if (pose.gamma1_deg && pose.linear.valid) {
@@ -466,8 +501,11 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
       pose.inertia = 1.0;
     }
   }
+}
 
-  // --- α-invariant model (section 2.3.5) ----------------------------------------------------------
+void fit_alpha_invariant_model(const FitPipelineOptions& options, DatasetFit& fit) {
+  const std::vector<std::vector<LocalLinearPoint>> pose_points = points_by_pose(fit);
+  detail::ProgressReporter progress(options);
   std::vector<AlphaFitPose> apose;
   std::vector<std::size_t> apose_pose;  // apose index → fit.poses index
   for (std::size_t p = 0; p < fit.poses.size(); ++p) {
@@ -493,9 +531,10 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
       fit.notes.push_back("without an inertia model the α-model is one model for all poses (I = 1)");
     }
   }
+}
 
-  // --- time domain: poses without sine runs (output error) --------------------------------------
-  // --- how the models are simulated (validation, time-domain fit) -------------------------------
+void choose_model_simulation(const std::vector<RunData>& data, const FitPipelineOptions& options,
+                             DatasetFit& fit) {
   // A digital loop (the local points were corrected for it, or the dataset gives a sample rate):
   // simulate it as one, the command held over each tick, when the runs are sampled uniformly at
   // that period; otherwise the continuous law (43).
@@ -522,134 +561,179 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
     }
     if (!dts.empty()) fit.simulation.max_step_s = std::max(1e-3, percentile(dts, 50.0));
   }
-  if (options.time_domain) {
-    progress("time-domain fit", 0, 1);
-    detail::add_time_domain_fit(dataset, data, options, fit);
-    progress("time-domain fit", 1, 1);
-  }
+}
 
-  // --- validation: every run simulated with both models under its own controller ----------------
-  if (options.validate) {
-    fit.validation.resize(n_runs);
-    std::atomic<std::size_t> done{0};
-    progress("validation simulations", 0, n_runs);
-    common::parallel_for(n_runs, options.threads, [&](std::size_t i) {
-      // One pass; `continue` leaves it early, and every run is reported after it.
-      do {
-        RunValidation& rv = fit.validation[i];
-        rv.run = i;
-        const RunInfo& run = dataset.runs[i];
-        const RunData& d = data[i];
-        JointModelAtPose m = fit.model_for_pose(run_pose[i]);
-        if (!(m.c_linear > 0.0) || !(m.beta_tilde_linear > 0.0)) {
-          rv.message = "no linear model for this run's pose";
-          continue;
-        }
-        if (detail::has_torque_off(d)) {
-          rv.message = "torque_enable = 0 in part of the run (free fall): not simulated";
-          continue;
-        }
-        const Controller ctl = to_controller(run.controller);
-        const SampledReference ref(d.t, d.r);
-        const InitialState x0 = initial_state_of(d);
-        m.use_alpha = false;
-        const SimulationResult lin = simulate(m, ctl, ref, d.t, x0, fit.simulation);
-        SimulationResult alp;
-        if (fit.alpha.ok) {
-          m.use_alpha = true;
-          alp = simulate(m, ctl, ref, d.t, x0, fit.simulation);
-        }
-        if (!lin.ok) {
-          rv.message = "linear simulation failed: " + lin.message;
-          continue;
-        }
-        rv.simulated = true;
-        const bool periodic = is_periodic_kind(run);
-        IndexRange win;
-        if (periodic) {
-          const double duration = d.t.back() - d.t.front();
-          win = steady_state_window(d.t, *run.freq_hz, options.settle_fraction * duration);
-        }
-        auto compare = [&](const SimulationResult& sim, RunErrors& e) {
-          if (!sim.ok) return;
-          e.simulated = true;
-          e.abs = abs_error_stats(d.theta, sim.theta, 0, d.size());
-          double num = 0.0, den = 0.0;
-          for (std::size_t k = 0; k < d.size(); ++k) {
-            num += std::pow(sim.theta[k] - d.theta[k], 2);
-            den += d.theta[k] * d.theta[k];
-          }
-          e.rel_position_error = den > 0.0 ? std::sqrt(num / den) : kNaN;
-          if (periodic) {
-            e.fundamental =
-                fundamental_error(d.t, d.r, d.theta, sim.theta, *run.freq_hz, win.begin, win.end);
-          }
-        };
-        compare(lin, rv.linear);
-        compare(alp, rv.alpha);
-      } while (false);
-      progress("validation simulations", ++done, n_runs);
-    });
-
-    // Per pose: Table 8 (90th percentile over the sweep) and Table 11 (median, p90 of |error|);
-    // then the median of each figure over the poses.
-    auto pose_errors = [&](const PoseFit& pose, RunErrors RunValidation::*model) {
-      std::vector<double> mag, phase, step_median, step_p90;
-      for (std::size_t i : pose.runs) {
-        const RunErrors& e = fit.validation[i].*model;
-        if (!e.simulated) continue;
-        if (e.fundamental.valid) {
-          mag.push_back(e.fundamental.magnitude_abs_error);
-          phase.push_back(e.fundamental.phase_abs_error_deg);
-        }
-        if (is_step_kind(dataset.runs[i])) {
-          step_median.push_back(e.abs.median);
-          step_p90.push_back(e.abs.p90);
-        }
-      }
-      return ModelErrors{finite_p90(mag), finite_p90(phase), finite_median(step_median),
-                         finite_median(step_p90)};
-    };
-    auto median_over_poses = [&](ModelErrors PoseFit::*model) {
-      std::vector<double> mag, phase, step_median, step_p90;
-      for (const PoseFit& pose : fit.poses) {
-        const ModelErrors& e = pose.*model;
-        mag.push_back(e.magnitude_p90);
-        phase.push_back(e.phase_p90_deg);
-        step_median.push_back(e.step_median_abs_err);
-        step_p90.push_back(e.step_p90_abs_err);
-      }
-      return ModelErrors{finite_median(mag), finite_median(phase), finite_median(step_median),
-                         finite_median(step_p90)};
-    };
-    for (PoseFit& pose : fit.poses) {
-      pose.linear_errors = pose_errors(pose, &RunValidation::linear);
-      pose.alpha_errors = pose_errors(pose, &RunValidation::alpha);
-    }
-    fit.linear_errors = median_over_poses(&PoseFit::linear_errors);
-    fit.alpha_errors = median_over_poses(&PoseFit::alpha_errors);
-    // Median relative position error over all simulated runs, and a plain warning when the model
-    // class clearly misses something (more than 20 % of the motion unexplained).
-    auto rel_median = [&](RunErrors RunValidation::*model) {
-      std::vector<double> rel;
-      for (const RunValidation& v : fit.validation) {
-        if ((v.*model).simulated) rel.push_back((v.*model).rel_position_error);
-      }
-      return finite_median(rel);
-    };
-    fit.linear_errors.rel_position_error_median = rel_median(&RunValidation::linear);
-    fit.alpha_errors.rel_position_error_median = rel_median(&RunValidation::alpha);
-    const double best = fit.alpha.ok ? fit.alpha_errors.rel_position_error_median
-                                     : fit.linear_errors.rel_position_error_median;
-    if (best > 0.2) {
-      fit.notes.push_back(
-          "the fitted models do not describe these runs: the median relative position error of "
-          "the simulation is " + std::to_string(static_cast<int>(std::lround(100.0 * best))) +
-          " %, so a physical effect outside the model dominates (gravity, saturation, friction, "
-          "...); `omni_fit diagnose` tests the catalogue of effects and adds the one that explains "
-          "the gap");
-    }
+/// One run simulated with both models under its own controller (the linear one always, the α one
+/// when fitted) and compared with the measurement.
+RunValidation validate_run(const Dataset& dataset, const std::vector<RunData>& data,
+                           const FitPipelineOptions& options, const DatasetFit& fit,
+                           std::size_t i, std::size_t pose) {
+  RunValidation rv;
+  rv.run = i;
+  const RunInfo& run = dataset.runs[i];
+  const RunData& d = data[i];
+  JointModelAtPose m = fit.model_for_pose(pose);
+  if (!(m.c_linear > 0.0) || !(m.beta_tilde_linear > 0.0)) {
+    rv.message = "no linear model for this run's pose";
+    return rv;
   }
+  if (detail::has_torque_off(d)) {
+    rv.message = "torque_enable = 0 in part of the run (free fall): not simulated";
+    return rv;
+  }
+  const Controller& ctl = run.controller;
+  const SampledReference ref(d.t, d.r);
+  const InitialState x0 = initial_state_of(d);
+  m.use_alpha = false;
+  const SimulationResult lin = simulate(m, ctl, ref, d.t, x0, fit.simulation);
+  SimulationResult alp;
+  if (fit.alpha.ok) {
+    m.use_alpha = true;
+    alp = simulate(m, ctl, ref, d.t, x0, fit.simulation);
+  }
+  if (!lin.ok) {
+    rv.message = "linear simulation failed: " + lin.message;
+    return rv;
+  }
+  rv.simulated = true;
+  const bool periodic = is_periodic_kind(run);
+  IndexRange win;
+  if (periodic) {
+    const double duration = d.t.back() - d.t.front();
+    win = steady_state_window(d.t, *run.freq_hz, options.settle_fraction * duration);
+  }
+  auto compare = [&](const SimulationResult& sim, RunErrors& e) {
+    if (!sim.ok) return;
+    e.simulated = true;
+    e.abs = abs_error_stats(d.theta, sim.theta, 0, d.size());
+    double num = 0.0, den = 0.0;
+    for (std::size_t k = 0; k < d.size(); ++k) {
+      num += std::pow(sim.theta[k] - d.theta[k], 2);
+      den += d.theta[k] * d.theta[k];
+    }
+    e.rel_position_error = den > 0.0 ? std::sqrt(num / den) : kNaN;
+    if (periodic) {
+      e.fundamental =
+          fundamental_error(d.t, d.r, d.theta, sim.theta, *run.freq_hz, win.begin, win.end);
+    }
+  };
+  compare(lin, rv.linear);
+  compare(alp, rv.alpha);
+  return rv;
+}
+
+void simulate_validation_runs(const Dataset& dataset, const std::vector<RunData>& data,
+                              const FitPipelineOptions& options, DatasetFit& fit) {
+  const std::size_t n_runs = dataset.runs.size();
+  const std::vector<std::size_t> run_pose = pose_of_runs(fit, n_runs);
+  detail::ProgressReporter progress(options);
+  fit.validation.resize(n_runs);
+  std::mutex progress_mutex;  // the count and its report together, so the count never goes back
+  std::size_t done = 0;
+  progress("validation simulations", 0, n_runs);
+  common::parallel_for(n_runs, options.threads, [&](std::size_t i) {
+    fit.validation[i] = validate_run(dataset, data, options, fit, i, run_pose[i]);
+    const std::lock_guard<std::mutex> lock(progress_mutex);
+    progress("validation simulations", ++done, n_runs);
+  });
+}
+
+void summarise_validation(const Dataset& dataset, DatasetFit& fit) {
+  // Per pose: Table 8 (90th percentile over the sweep) and Table 11 (median, p90 of |error|);
+  // then the median of each figure over the poses.
+  auto pose_errors = [&](const PoseFit& pose, RunErrors RunValidation::*model) {
+    std::vector<double> mag, phase, step_median, step_p90;
+    for (std::size_t i : pose.runs) {
+      const RunErrors& e = fit.validation[i].*model;
+      if (!e.simulated) continue;
+      if (e.fundamental.valid) {
+        mag.push_back(e.fundamental.magnitude_abs_error);
+        phase.push_back(e.fundamental.phase_abs_error_deg);
+      }
+      if (is_step_kind(dataset.runs[i])) {
+        step_median.push_back(e.abs.median);
+        step_p90.push_back(e.abs.p90);
+      }
+    }
+    return ModelErrors{finite_p90(mag), finite_p90(phase), finite_median(step_median),
+                       finite_median(step_p90)};
+  };
+  auto median_over_poses = [&](ModelErrors PoseFit::*model) {
+    std::vector<double> mag, phase, step_median, step_p90;
+    for (const PoseFit& pose : fit.poses) {
+      const ModelErrors& e = pose.*model;
+      mag.push_back(e.magnitude_p90);
+      phase.push_back(e.phase_p90_deg);
+      step_median.push_back(e.step_median_abs_err);
+      step_p90.push_back(e.step_p90_abs_err);
+    }
+    return ModelErrors{finite_median(mag), finite_median(phase), finite_median(step_median),
+                       finite_median(step_p90)};
+  };
+  for (PoseFit& pose : fit.poses) {
+    pose.linear_errors = pose_errors(pose, &RunValidation::linear);
+    pose.alpha_errors = pose_errors(pose, &RunValidation::alpha);
+  }
+  fit.linear_errors = median_over_poses(&PoseFit::linear_errors);
+  fit.alpha_errors = median_over_poses(&PoseFit::alpha_errors);
+  // Median relative position error over all simulated runs, and a plain warning when the model
+  // class clearly misses something (more than 20 % of the motion unexplained).
+  auto rel_median = [&](RunErrors RunValidation::*model) {
+    std::vector<double> rel;
+    for (const RunValidation& v : fit.validation) {
+      if ((v.*model).simulated) rel.push_back((v.*model).rel_position_error);
+    }
+    return finite_median(rel);
+  };
+  fit.linear_errors.rel_position_error_median = rel_median(&RunValidation::linear);
+  fit.alpha_errors.rel_position_error_median = rel_median(&RunValidation::alpha);
+  const double best = fit.alpha.ok ? fit.alpha_errors.rel_position_error_median
+                                   : fit.linear_errors.rel_position_error_median;
+  if (best > 0.2) {
+    fit.notes.push_back(
+        "the fitted models do not describe these runs: the median relative position error of "
+        "the simulation is " + std::to_string(static_cast<int>(std::lround(100.0 * best))) +
+        " %, so a physical effect outside the model dominates (gravity, saturation, friction, "
+        "...); `omni_fit diagnose` tests the catalogue of effects and adds the one that explains "
+        "the gap");
+  }
+}
+
+void describe_fit(DatasetFit& fit) {
+  if (!fit.usable()) {
+    fit.message = "no model could be identified: no pose has a linear model and there is no "
+                  "α-model (the notes say why)";
+    return;
+  }
+  std::size_t modelled = 0, from_sine = 0;
+  for (const PoseFit& p : fit.poses) {
+    modelled += p.linear.valid || (fit.has_inertia_model && p.gamma1_deg) ? 1 : 0;
+    from_sine += p.linear.valid && p.linear_source == "sine (22)" ? 1 : 0;
+  }
+  fit.message = "identified: a linear model at " + std::to_string(modelled) + " of " +
+                std::to_string(fit.poses.size()) + " poses (" + std::to_string(from_sine) +
+                " by the sine runs (22)" +
+                (fit.has_inertia_model ? ", every pose with angles by the inertia model (27)-(29))"
+                                       : ", no inertia model)") +
+                (fit.alpha.ok ? ", the α-model (" + fit.alpha_source + ")" : ", no α-model");
+}
+
+DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
+                       const FitPipelineOptions& options) {
+  options.validate();
+  DatasetFit fit;
+  group_runs_by_pose(dataset, fit);
+  fit_local_linear_points(dataset, data, options, fit);
+  fit_global_linear_models(fit);
+  fit_inertia_across_poses(options, fit);
+  fit_alpha_invariant_model(options, fit);
+  choose_model_simulation(data, options, fit);
+  if (options.time_domain) fit_time_domain_poses(dataset, data, options, fit);
+  if (options.run_validation) {
+    simulate_validation_runs(dataset, data, options, fit);
+    summarise_validation(dataset, fit);
+  }
+  describe_fit(fit);
   return fit;
 }
 

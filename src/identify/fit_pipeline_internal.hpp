@@ -1,7 +1,11 @@
 #pragma once
-// Internal to alphainv::identify: parts of fit_dataset() kept in their own files.
+// Internal to alphainv::identify: what the stages of fit_dataset() (fit_stages.hpp) share and the
+// API does not offer.
 
 #include <cstddef>
+#include <functional>
+#include <mutex>
+#include <string_view>
 #include <vector>
 
 #include "alphainv/data/dataset.hpp"
@@ -13,9 +17,20 @@ namespace alphainv::detail {
 /// closed-loop model does not hold then (free fall).
 bool has_torque_off(const RunData& d);
 
-/// Time-domain identification (time_domain_fit.hpp) of every pose without a valid linear model,
-/// and of the α-model when the sine runs gave none (single-pose datasets).
-void add_time_domain_fit(const Dataset& dataset, const std::vector<RunData>& data,
-                         const FitPipelineOptions& options, DatasetFit& fit);
+/// FitPipelineOptions::progress, serialised by a mutex: stage 8's workers call it from their
+/// threads. Does nothing when the options have no progress function.
+class ProgressReporter {
+ public:
+  explicit ProgressReporter(const FitPipelineOptions& options) : progress_(options.progress) {}
+  void operator()(std::string_view stage, std::size_t done, std::size_t total) {
+    if (!progress_) return;
+    const std::lock_guard<std::mutex> lock(mutex_);
+    progress_(stage, done, total);
+  }
+
+ private:
+  const std::function<void(std::string_view, std::size_t, std::size_t)>& progress_;
+  std::mutex mutex_;
+};
 
 }  // namespace alphainv::detail

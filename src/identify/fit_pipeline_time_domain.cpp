@@ -1,11 +1,14 @@
-// fit_dataset(), continued: output-error identification of poses that have no sine runs.
+// fit_dataset(), stage 7 (fit_stages.hpp): output-error identification of poses that have no
+// sine runs.
 #include <cmath>
 #include <string>
 
+#include "alphainv/identify/fit_stages.hpp"
 #include "alphainv/identify/time_domain_fit.hpp"
 #include "fit_pipeline_internal.hpp"
 
-namespace alphainv::detail {
+namespace alphainv {
+namespace detail {
 
 bool has_torque_off(const RunData& d) {
   const std::vector<double>* en = d.column("torque_enable");
@@ -16,8 +19,12 @@ bool has_torque_off(const RunData& d) {
   return false;
 }
 
-void add_time_domain_fit(const Dataset& dataset, const std::vector<RunData>& data,
-                         const FitPipelineOptions& options, DatasetFit& fit) {
+}  // namespace detail
+
+void fit_time_domain_poses(const Dataset& dataset, const std::vector<RunData>& data,
+                           const FitPipelineOptions& options, DatasetFit& fit) {
+  detail::ProgressReporter progress(options);
+  progress("time-domain fit", 0, 1);
   TimeDomainFitOptions to;
   to.n_breakpoints = options.n_breakpoints;
   to.threads = options.threads;
@@ -31,11 +38,11 @@ void add_time_domain_fit(const Dataset& dataset, const std::vector<RunData>& dat
     if (pose.linear.valid || (fit.has_inertia_model && pose.gamma1_deg)) continue;
     std::vector<TimeDomainRun> runs;
     for (std::size_t i : pose.runs) {
-      if (has_torque_off(data[i])) {
+      if (detail::has_torque_off(data[i])) {
         ++torque_off;
         continue;
       }
-      const Controller ctl = to_controller(dataset.runs[i].controller);
+      const Controller& ctl = dataset.runs[i].controller;
       if (!(ctl.kp > 0.0)) {
         ++not_p;
         continue;
@@ -111,6 +118,7 @@ void add_time_domain_fit(const Dataset& dataset, const std::vector<RunData>& dat
       fit.notes.push_back("the time-domain α-model is fitted for single-pose datasets only");
     }
   }
+  progress("time-domain fit", 1, 1);
 }
 
-}  // namespace alphainv::detail
+}  // namespace alphainv

@@ -17,8 +17,10 @@
 #include <string>
 #include <vector>
 
+#include "alphainv/error.hpp"
 #include "alphainv/identify/detail/inertia_fit_residual.hpp"
 #include "common/format.hpp"
+#include "alphainv/model/detail/field_checks.hpp"
 
 namespace alphainv {
 namespace {
@@ -364,39 +366,46 @@ const char* inertia_fit_parameter_name(int index) noexcept {
   }
 }
 
-bool InertiaFitOptions::validate(std::string* error) const {
-  auto fail = [error](std::string what) {
-    if (error != nullptr) *error = std::move(what);
-    return false;
-  };
+void InertiaFitOptions::validate() const {
+  const std::string p = "InertiaFitOptions::";
   if (!std::isfinite(gamma_offs_min_rad) || !std::isfinite(gamma_offs_max_rad) ||
       !(gamma_offs_min_rad < gamma_offs_max_rad)) {
-    return fail(format("options: need finite gamma_offs_min_rad < gamma_offs_max_rad, got %g, %g",
-                       gamma_offs_min_rad, gamma_offs_max_rad));
+    throw Error(format("expected finite gamma_offs_min_rad < gamma_offs_max_rad, got %g, %g",
+                       gamma_offs_min_rad, gamma_offs_max_rad),
+                {}, 0, p + "gamma_offs_min_rad");
   }
-  if (gamma_offs_starts_rad.empty()) return fail("options: gamma_offs_starts_rad is empty");
-  for (double g : gamma_offs_starts_rad) {
+  if (gamma_offs_starts_rad.empty()) {
+    throw Error("expected at least one start, got none", {}, 0, p + "gamma_offs_starts_rad");
+  }
+  for (std::size_t i = 0; i < gamma_offs_starts_rad.size(); ++i) {
+    const double g = gamma_offs_starts_rad[i];
     if (!(g >= gamma_offs_min_rad && g <= gamma_offs_max_rad)) {
-      return fail(format("options: gamma_offs start %g rad is outside [%g, %g]", g,
-                         gamma_offs_min_rad, gamma_offs_max_rad));
+      throw Error(format("expected a gamma_offs start in [%g, %g] rad, got %g", gamma_offs_min_rad,
+                         gamma_offs_max_rad, g),
+                  {}, 0, p + "gamma_offs_starts_rad[" + std::to_string(i) + "]");
     }
   }
-  for (double f : inertia_scale_starts) {
-    if (!std::isfinite(f) || !(f > 0.0)) {
-      return fail(format("options: inertia_scale_starts must be finite and > 0, got %g", f));
-    }
+  for (std::size_t i = 0; i < inertia_scale_starts.size(); ++i) {
+    detail::require_positive(p + "inertia_scale_starts[" + std::to_string(i) + "]",
+                             inertia_scale_starts[i]);
   }
-  if (max_iterations < 1)
-    return fail(format("options: max_iterations must be >= 1, got %d", max_iterations));
-  if (!(function_tolerance >= 0.0) || !(gradient_tolerance >= 0.0) ||
-      !(parameter_tolerance >= 0.0)) {
-    return fail("options: tolerances must be >= 0");
+  if (max_iterations < 1) {
+    throw Error(format("expected max_iterations >= 1, got %d", max_iterations), {}, 0,
+                p + "max_iterations");
   }
-  if (!(poorly_determined_relative_se > 0.0) || !(poorly_determined_gamma_offs_se_rad > 0.0) ||
-      !(poorly_determined_correlation > 0.0 && poorly_determined_correlation <= 1.0)) {
-    return fail("options: poorly_determined thresholds must be > 0 (correlation in (0, 1])");
+  if (!(function_tolerance >= 0.0))
+    detail::bad(p + "function_tolerance", "a tolerance >= 0", function_tolerance);
+  if (!(gradient_tolerance >= 0.0))
+    detail::bad(p + "gradient_tolerance", "a tolerance >= 0", gradient_tolerance);
+  if (!(parameter_tolerance >= 0.0))
+    detail::bad(p + "parameter_tolerance", "a tolerance >= 0", parameter_tolerance);
+  detail::require_positive(p + "poorly_determined_relative_se", poorly_determined_relative_se);
+  detail::require_positive(p + "poorly_determined_gamma_offs_se_rad",
+                           poorly_determined_gamma_offs_se_rad);
+  if (!(poorly_determined_correlation > 0.0 && poorly_determined_correlation <= 1.0)) {
+    detail::bad(p + "poorly_determined_correlation", "a correlation in (0, 1]",
+                poorly_determined_correlation);
   }
-  return true;
 }
 
 C0BarEstimate regress_c0_bar(const std::vector<InertiaPose>& poses) {
@@ -437,12 +446,13 @@ InertiaFitSummary fit_inertia_model(const std::vector<InertiaPose>& poses,
   InertiaFitSummary s;
   s.num_poses = static_cast<int>(poses.size());
   s.num_residuals = 2 * s.num_poses;
-  std::string error;
-  if (!options.validate(&error)) {
-    s.message = "not fitted: " + error;
+  try {
+    options.validate();
+  } catch (const Error& e) {
+    s.message = std::string("not fitted: invalid options: ") + e.what();
     return s;
   }
-  error = check_poses(poses);
+  std::string error = check_poses(poses);
   if (!error.empty()) {
     s.message = "not fitted: " + error;
     return s;

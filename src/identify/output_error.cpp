@@ -8,6 +8,9 @@
 #include <Eigen/Dense>
 #include <ceres/ceres.h>
 
+#include "alphainv/error.hpp"
+#include "alphainv/identify/fit_report.hpp"
+#include "alphainv/model/detail/field_checks.hpp"
 #include "alphainv/simulate/reference.hpp"
 #include "common/parallel_for.hpp"
 
@@ -168,14 +171,13 @@ std::vector<double> output_error_rms(const OutputErrorProblem& problem, const st
   return out;
 }
 
-OutputErrorResult fit_output_error(const OutputErrorProblem& problem,
-                                   const OutputErrorOptions& options) {
-  OutputErrorResult res;
+namespace {
+
+/// The starts of the fit: the parameters' initial values, then every extra start of the right
+/// size.
+std::vector<std::vector<double>> fit_starts(const OutputErrorProblem& problem,
+                                            const OutputErrorOptions& options) {
   const std::size_t np = problem.parameters.size();
-  if (std::string why = check_problem(problem); !why.empty()) {
-    res.message = why;
-    return res;
-  }
   std::vector<std::vector<double>> starts;
   {
     std::vector<double> p0(np);
@@ -185,29 +187,43 @@ OutputErrorResult fit_output_error(const OutputErrorProblem& problem,
   for (const auto& s : options.extra_starts) {
     if (s.size() == np) starts.push_back(s);
   }
-  std::atomic<long> sims{0};
-  // Residual scale: the RMS error at the first start (or the RMS of θ if that simulation fails).
+  return starts;
+}
+
+/// The residual scale: the RMS error at the first start (or the RMS of θ if that simulation
+/// fails), so that the solver's absolute tolerances see a cost of order one.
+double residual_scale(const OutputErrorProblem& problem, const std::vector<double>& start,
+                      unsigned threads, std::atomic<long>& sims) {
   double scale = 0.0;
-  {
-    const std::vector<double> rms0 = output_error_rms(problem, starts.front(), options.threads);
-    sims += static_cast<long>(problem.runs.size());
-    double ss = 0.0;
-    for (double x : rms0) ss += std::isfinite(x) ? x * x : 0.0;
-    scale = std::sqrt(ss / static_cast<double>(rms0.size()));
-    if (!(scale > 0.0) || !std::isfinite(scale)) {
-      double th = 0.0;
-      std::size_t cnt = 0;
-      for (const auto& r : problem.runs) {
-        for (double x : r.data->theta) th += x * x;
-        cnt += r.data->size();
-      }
-      scale = std::sqrt(th / static_cast<double>(std::max<std::size_t>(cnt, 1)));
+  const std::vector<double> rms0 = output_error_rms(problem, start, threads);
+  sims += static_cast<long>(problem.runs.size());
+  double ss = 0.0;
+  for (double x : rms0) ss += std::isfinite(x) ? x * x : 0.0;
+  scale = std::sqrt(ss / static_cast<double>(rms0.size()));
+  if (!(scale > 0.0) || !std::isfinite(scale)) {
+    double th = 0.0;
+    std::size_t cnt = 0;
+    for (const auto& r : problem.runs) {
+      for (double x : r.data->theta) th += x * x;
+      cnt += r.data->size();
     }
-    if (!(scale > 0.0) || !std::isfinite(scale)) scale = 1.0;
+    scale = std::sqrt(th / static_cast<double>(std::max<std::size_t>(cnt, 1)));
   }
+  if (!(scale > 0.0) || !std::isfinite(scale)) scale = 1.0;
+  return scale;
+}
+
+/// Bounded Levenberg-Marquardt from every start; the lowest final cost wins. Adds the iterations
+/// to `res`; returns the winner (empty: no start gave a usable solution) and its Ceres one-line
+/// report in `best_report`.
+std::vector<double> solve_from_starts(const OutputErrorProblem& problem,
+                                      const OutputErrorOptions& options,
+                                      const std::vector<std::vector<double>>& starts, double scale,
+                                      std::atomic<long>& sims, OutputErrorResult& res,
+                                      std::string& best_report) {
+  const std::size_t np = problem.parameters.size();
   double best_cost = std::numeric_limits<double>::infinity();
   std::vector<double> best;
-  std::string best_report;
   for (const auto& start : starts) {
     std::vector<double> x = start;
     for (std::size_t j = 0; j < np; ++j)
@@ -241,14 +257,14 @@ OutputErrorResult fit_output_error(const OutputErrorProblem& problem,
       best_report = summary.BriefReport();
     }
   }
-  if (best.empty()) {
-    res.message = "no start gave a usable solution (simulation failed for every start)";
-    res.simulations = sims;
-    return res;
-  }
-  res.values = best;
-  res.message = best_report;
+  return best;
+}
 
+/// res.standard_errors at `best` from the stacked Jacobian of every run (NaN where not available).
+void add_standard_errors(const OutputErrorProblem& problem, const OutputErrorOptions& options,
+                         const std::vector<double>& best, double scale, std::atomic<long>& sims,
+                         OutputErrorResult& res) {
+  const std::size_t np = problem.parameters.size();
   // Standard errors from the stacked Jacobian at the solution: cov = σ² (JᵀJ)⁻¹.
   res.standard_errors.assign(np, std::numeric_limits<double>::quiet_NaN());
   if (np > 0) {
@@ -310,6 +326,38 @@ OutputErrorResult fit_output_error(const OutputErrorProblem& problem,
       }
     }
   }
+}
+
+}  // namespace
+
+OutputErrorResult fit_output_error(const OutputErrorProblem& problem,
+                                   const OutputErrorOptions& options) {
+  OutputErrorResult res;
+  for (const auto& par : problem.parameters) res.parameter_names.push_back(par.name);
+  if (std::string why = check_problem(problem); !why.empty()) {
+    res.message = why;
+    return res;
+  }
+  try {
+    options.validate();
+  } catch (const Error& e) {
+    res.message = std::string("invalid options: ") + e.what();
+    return res;
+  }
+  const std::vector<std::vector<double>> starts = fit_starts(problem, options);
+  std::atomic<long> sims{0};
+  const double scale = residual_scale(problem, starts.front(), options.threads, sims);
+  std::string best_report;
+  const std::vector<double> best =
+      solve_from_starts(problem, options, starts, scale, sims, res, best_report);
+  if (best.empty()) {
+    res.message = "no start gave a usable solution (simulation failed for every start)";
+    res.simulations = sims;
+    return res;
+  }
+  res.values = best;
+  res.message = best_report;
+  add_standard_errors(problem, options, best, scale, sims, res);
   res.run_rms = output_error_rms(problem, best, options.threads);
   double ss = 0.0, wsum = 0.0;
   bool all = true;
@@ -323,6 +371,43 @@ OutputErrorResult fit_output_error(const OutputErrorProblem& problem,
   res.ok = all;
   if (!all) res.message = "the simulation of a run failed at the solution";
   return res;
+}
+
+void OutputErrorOptions::validate() const {
+  if (max_iterations < 1) {
+    detail::bad("OutputErrorOptions::max_iterations", "at least 1 iteration",
+                static_cast<double>(max_iterations));
+  }
+  for (std::size_t s = 0; s < extra_starts.size(); ++s) {
+    for (std::size_t j = 0; j < extra_starts[s].size(); ++j) {
+      detail::require_finite(
+          "OutputErrorOptions::extra_starts[" + std::to_string(s) + "][" + std::to_string(j) + "]",
+          extra_starts[s][j]);
+    }
+  }
+}
+
+std::string OutputErrorResult::brief_report() const {
+  if (!ok) return "output-error fit: NOT usable: " + message;
+  return "output-error fit: usable, " + std::to_string(values.size()) +
+         " parameters, RMS of θ − θ_sim " + report_number(rms) + ", " +
+         std::to_string(iterations) + " iterations, " + std::to_string(simulations) +
+         " simulations";
+}
+
+std::string OutputErrorResult::full_report() const {
+  std::string out = brief_report() + "\n";
+  for (std::size_t j = 0; j < values.size(); ++j) {
+    const double se =
+        j < standard_errors.size() ? standard_errors[j] : std::numeric_limits<double>::quiet_NaN();
+    out += "  " + (j < parameter_names.size() ? parameter_names[j] : "p" + std::to_string(j)) +
+           " = " + report_number(values[j], "%.6g") + " ± " + report_number(se, "%.3g") + "\n";
+  }
+  for (std::size_t i = 0; i < run_rms.size(); ++i) {
+    out += "  run " + std::to_string(i) + ": RMS of θ − θ_sim " + report_number(run_rms[i]) + "\n";
+  }
+  if (ok) out += "  " + message + "\n";
+  return out;
 }
 
 }  // namespace alphainv

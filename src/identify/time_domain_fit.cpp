@@ -5,7 +5,10 @@
 
 #include <Eigen/Dense>
 
+#include "alphainv/error.hpp"
+#include "alphainv/identify/fit_report.hpp"
 #include "alphainv/identify/output_error.hpp"
+#include "alphainv/model/detail/field_checks.hpp"
 
 namespace alphainv {
 
@@ -36,7 +39,30 @@ std::vector<double> quantile_levels(std::size_t n) {
   return lv;
 }
 
+/// "" when `options` are valid, else "invalid options: " and what validate() says.
+std::string options_error(const TimeDomainFitOptions& options) {
+  try {
+    options.validate();
+  } catch (const Error& e) {
+    return std::string("invalid options: ") + e.what();
+  }
+  return {};
+}
+
 }  // namespace
+
+void TimeDomainFitOptions::validate() const {
+  if (n_breakpoints < 2 || n_breakpoints > kMaxBreakpoints) {
+    detail::bad("TimeDomainFitOptions::n_breakpoints",
+                "2 to " + std::to_string(kMaxBreakpoints) + " breakpoints",
+                static_cast<double>(n_breakpoints));
+  }
+  detail::require_positive("TimeDomainFitOptions::smoothing_window_s", smoothing_window_s);
+  if (max_residuals_per_run < 1) {
+    detail::bad("TimeDomainFitOptions::max_residuals_per_run", "at least 1 residual per run", 0.0);
+  }
+  validate_effects(effects, "TimeDomainFitOptions::effects.");
+}
 
 void local_quadratic_derivatives(const std::vector<double>& t, const std::vector<double>& y,
                                  double half_window_s, std::vector<double>& dy,
@@ -82,6 +108,8 @@ TimeDomainLinearFit fit_linear_time_domain(const std::vector<TimeDomainRun>& run
     out.message = "no runs";
     return out;
   }
+  out.message = options_error(options);
+  if (!out.message.empty()) return out;
   // Stage 1: θ̈ = −C·θ̇ + β̃·u, u = v through the known effects (inverse dynamics, least squares).
   Eigen::Matrix2d ata = Eigen::Matrix2d::Zero();
   Eigen::Vector2d aty = Eigen::Vector2d::Zero();
@@ -152,10 +180,8 @@ TimeDomainAlphaFit fit_alpha_time_domain(const std::vector<TimeDomainRun>& runs,
     out.message = "no linear model to start from";
     return out;
   }
-  if (n < 2 || n > kMaxBreakpoints) {
-    out.message = "n_breakpoints must be 2.." + std::to_string(kMaxBreakpoints);
-    return out;
-  }
+  out.message = options_error(options);
+  if (!out.message.empty()) return out;
   // Breakpoints at quantiles of the positive α of the commands.
   std::vector<double> alphas;
   for (const auto& run : runs) {
@@ -216,6 +242,46 @@ TimeDomainAlphaFit fit_alpha_time_domain(const std::vector<TimeDomainRun>& runs,
   out.rms = r.rms;
   out.ok = out.model.valid();
   out.message = out.ok ? r.message : "the fitted α-model is not valid";
+  return out;
+}
+
+std::string TimeDomainLinearFit::brief_report() const {
+  if (!ok) return "time-domain linear fit: NOT usable: " + message;
+  return "time-domain linear fit: usable, C = " + report_number(c_linear) + " ± " +
+         report_number(c_se, "%.2g") + " 1/s, β̃ = " + report_number(beta_tilde_linear) + " ± " +
+         report_number(beta_tilde_se, "%.2g") + ", RMS of θ − θ_sim " + report_number(rms);
+}
+
+std::string TimeDomainLinearFit::full_report() const {
+  std::string out = brief_report() + "\n";
+  out += "  equation-error start: C = " + report_number(c_equation_error) + " 1/s, β̃ = " +
+         report_number(beta_tilde_equation_error) + "\n";
+  if (ok) out += "  " + message + "\n";
+  return out;
+}
+
+std::string TimeDomainAlphaFit::brief_report() const {
+  if (!ok) return "time-domain α fit: NOT usable: " + message;
+  return "time-domain α fit: usable, N = " + std::to_string(model.n_breakpoints) +
+         " breakpoints up to α = " + report_number(model.alpha[model.n_breakpoints - 1]) +
+         " (the commands reach " + report_number(alpha_max) + "), RMS of θ − θ_sim " +
+         report_number(rms);
+}
+
+std::string TimeDomainAlphaFit::full_report() const {
+  std::string out = brief_report() + "\n";
+  if (!ok) return out;
+  for (std::size_t k = 0; k < model.n_breakpoints; ++k) {
+    out += "  α_" + std::to_string(k) + " = " + report_number(model.alpha[k]) + ": C_" +
+           std::to_string(k) + " = " + report_number(1.0 / model.c_n1[k]) + " ± " +
+           report_number(c_se[k], "%.2g") + " 1/s\n";
+  }
+  for (std::size_t k = 0; k < 2; ++k) {
+    out += "  β̃_" + std::to_string(k) + " = " + report_number(1.0 / model.beta_n1[k]) + " ± " +
+           report_number(beta_tilde_se[k], "%.2g") + " at α = " +
+           report_number(model.beta_alpha[k]) + "\n";
+  }
+  out += "  " + message + "\n";
   return out;
 }
 

@@ -8,7 +8,6 @@
 #include <limits>
 
 #include "alphainv/error.hpp"
-#include "alphainv/identify/fit_pipeline.hpp"  // to_controller (until the one Controller lands)
 #include "alphainv/identify/output_error.hpp"
 #include "alphainv/simulate/model_simulation.hpp"
 #include "alphainv/simulate/reference.hpp"
@@ -98,7 +97,7 @@ ValidatedRun validate_run(const ModelFile& model, const RunInfo& info, const Run
     return v;
   }
   // The run's controller; a dataset that states none runs under the model's.
-  const Controller controller = info.controller.kp > 0.0 ? to_controller(info.controller) : model.controller;
+  const Controller controller = info.controller.kp > 0.0 ? info.controller : model.controller;
   const SampledReference reference(d.t, d.r);
   SimulationOptions so = options.simulation;
   so.loop_period_s = model.loop_period_s;

@@ -123,16 +123,6 @@ void validate_plant(const VirtualOmniParams& p, const std::string& prefix,
   }
 }
 
-ControllerConfig controller_config(const Controller& c) {
-  ControllerConfig out;
-  out.kp = c.kp;
-  out.ki = c.ki;
-  out.kd = c.kd;
-  out.derivative_on = c.derivative_on == DerivativeOn::kMeasurement
-                          ? ControllerConfig::DerivativeOn::Measurement
-                          : ControllerConfig::DerivativeOn::Error;
-  if (c.has_limit()) out.v_limit = c.v_limit;
-  return out;
 }
 
 /// Rounds to 0.01°: the recorded pose is what the plant uses, exactly.
@@ -432,7 +422,7 @@ Dataset plan_dataset_index(const ExperimentPlan& plan) {
   ds.position_unit = "rad";
   ds.command_unit = "V";
   ds.sample_rate_hz = 1.0 / o.plant.tick_period_s;
-  ds.controller = controller_config(o.controller);
+  ds.controller = o.controller;
   JsonObject extra;
   extra.str("source", "alphainv virtual Omni, seed " + std::to_string(o.seed));
   if (!o.generator_command.empty()) extra.str("generator", o.generator_command);

@@ -104,18 +104,6 @@ JointModelAtPose model_at(const ModelFile& model, std::optional<double> gamma1_d
   return m;
 }
 
-ControllerConfig to_controller_config(const Controller& c) {
-  ControllerConfig out;
-  out.kp = c.kp;
-  out.ki = c.ki;
-  out.kd = c.kd;
-  out.derivative_on = c.derivative_on == DerivativeOn::kError
-                          ? ControllerConfig::DerivativeOn::Error
-                          : ControllerConfig::DerivativeOn::Measurement;
-  if (c.has_limit()) out.v_limit = c.v_limit;
-  return out;
-}
-
 ModelRun simulate_model_run(const ModelFile& model, const JointModelAtPose& joint,
                             const ModelRunOptions& o, std::optional<double> gamma1_deg,
                             std::optional<double> gamma2_deg) {
@@ -152,7 +140,7 @@ ModelRun simulate_model_run(const ModelFile& model, const JointModelAtPose& join
   run.info.amplitude_rad = o.amplitude_rad;
   run.info.gamma1_deg = gamma1_deg;
   run.info.gamma2_deg = gamma2_deg;
-  run.info.controller = to_controller_config(run.controller);
+  run.info.controller = run.controller;
   run.message = s.message;
   if (!s.ok) return run;
 

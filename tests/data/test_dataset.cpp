@@ -18,6 +18,7 @@
 
 #include "alphainv/data/dataset.hpp"
 #include "alphainv/error.hpp"
+#include "support/error_of.hpp"
 
 namespace alphainv {
 namespace {
@@ -34,16 +35,7 @@ void write_text(const fs::path& path, const std::string& text) {
   ASSERT_TRUE(out.good()) << path;
 }
 
-/// Runs f and returns the alphainv::Error it throws (a failure if it throws none).
-Error error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e;
-  }
-  ADD_FAILURE() << "expected alphainv::Error, none thrown";
-  return Error("no error thrown");
-}
+using test::error_of;
 
 void expect_contains(const std::string& text, const std::vector<std::string>& parts) {
   for (const auto& part : parts) {
@@ -495,7 +487,7 @@ TEST_F(DatasetTest, IndexDefaultsShorthandAndControllerMerge) {
   EXPECT_EQ(ds.controller.kp, 2.5);
   EXPECT_EQ(ds.controller.ki, 0.0);
   EXPECT_EQ(ds.controller.kd, 0.1);
-  EXPECT_EQ(ds.controller.derivative_on, ControllerConfig::DerivativeOn::Measurement);
+  EXPECT_EQ(ds.controller.derivative_on, DerivativeOn::kMeasurement);
   EXPECT_EQ(ds.controller.v_limit, 12.0);
   expect_contains(ds.extra_json, {"\"source\":\"bench\""});
   EXPECT_EQ(ds.extra_json.find("\"runs\""), std::string::npos);
@@ -508,10 +500,27 @@ TEST_F(DatasetTest, IndexDefaultsShorthandAndControllerMerge) {
   EXPECT_EQ(ds.runs[1].controller.kp, 7.0);
   EXPECT_EQ(ds.runs[1].controller.ki, 1.0);
   EXPECT_EQ(ds.runs[1].controller.kd, 0.1);
-  EXPECT_FALSE(ds.runs[1].controller.v_limit.has_value());
+  EXPECT_FALSE(ds.runs[1].controller.has_limit());
   EXPECT_EQ(ds.runs[2].controller.kp, 4.0);
   EXPECT_EQ(ds.runs[2].controller.v_limit, 12.0);
   expect_contains(ds.runs[2].extra_json, {"\"trajectory\":\"up\""});
+}
+
+TEST_F(DatasetTest, IndexWithoutControllerReadsAsUnstatedLaw) {
+  write_text(dir_ / "runs" / "a.csv", kGoodCsv);
+  write_text(dir_ / "dataset.json", index_json(R"({"file": "runs/a.csv", "kind": "step"})"));
+  const Dataset ds = read_dataset_index(dir_);
+  // kp = 0 (no P law stated: the fit skips such runs), not the simulator's default kp = 2.
+  EXPECT_EQ(ds.controller, kUnstatedController);
+  EXPECT_EQ(ds.controller.kp, 0.0);
+  EXPECT_EQ(ds.controller.ki, 0.0);
+  EXPECT_EQ(ds.controller.kd, 0.0);
+  EXPECT_EQ(ds.controller.derivative_on, DerivativeOn::kError);
+  EXPECT_FALSE(ds.controller.has_limit());
+  EXPECT_EQ(ds.runs.at(0).controller, kUnstatedController);
+  EXPECT_EQ(Dataset{}.controller, kUnstatedController);
+  EXPECT_EQ(RunInfo{}.controller, kUnstatedController);
+  EXPECT_NE(kUnstatedController, Controller{});  // Controller{} is the kp = 2 P law
 }
 
 // --- writer
@@ -551,7 +560,7 @@ Dataset small_dataset() {
   ds.sample_rate_hz = 1000.0 / 3.0;
   ds.controller.kp = 2.0 / 3.0;
   ds.controller.kd = 1e-300;
-  ds.controller.derivative_on = ControllerConfig::DerivativeOn::Measurement;
+  ds.controller.derivative_on = DerivativeOn::kMeasurement;
   ds.controller.v_limit = 10.0;
   ds.extra_json = R"({"source": "unit test", "nested": {"a": [1, 2.5, null]}})";
   RunInfo sine;
@@ -568,7 +577,7 @@ Dataset small_dataset() {
   step.kind = "step";
   step.controller = ds.controller;
   step.controller.kp = 0.1;
-  step.controller.v_limit.reset();  // written as an explicit null override
+  step.controller.v_limit = std::numeric_limits<double>::infinity();  // an explicit null override
   ds.runs = {sine, step};
   return ds;
 }
@@ -628,6 +637,24 @@ TEST_F(DatasetTest, RoundTripRealPendulumDataset) {
     return std::string(std::istreambuf_iterator<char>(in), {});
   };
   EXPECT_EQ(slurp(dir_ / "copy" / "dataset.json"), slurp(dir_ / "copy2" / "dataset.json"));
+}
+
+TEST_F(DatasetTest, WriterSpellsNoLimitAsNull) {
+  Dataset ds = small_dataset();
+  ds.controller.v_limit = std::numeric_limits<double>::infinity();
+  ds.runs[0].controller = ds.controller;
+  ds.runs[1].controller = ds.controller;
+  ds.runs[1].controller.v_limit = 3.5;  // a run's own limit: an override
+  const std::string text = format_dataset_index(ds);
+  expect_contains(text, {"\"v_limit\": null", "\"v_limit\": 3.5"});
+  const Dataset back = parse_dataset_index(text, dir_);
+  EXPECT_FALSE(back.controller.has_limit());
+  EXPECT_FALSE(back.runs[0].controller.has_limit());
+  EXPECT_EQ(back.runs[1].controller.v_limit, 3.5);
+  ds.runs[1].controller.v_limit = -1.0;  // read back as invalid: the writer names the key
+  const Error e = error_of([&] { format_dataset_index(ds); });
+  EXPECT_EQ(e.field(), "runs[1].controller.v_limit") << e.what();
+  expect_contains(e.what(), {"expected null or a number greater than 0, found -1"});
 }
 
 TEST_F(DatasetTest, WriterRejectsInvalidDataBeforeWritingAnything) {
@@ -728,7 +755,7 @@ TEST(RealDatasets, EmpsLoads) {
   EXPECT_EQ(ds.command_unit, "V");
   EXPECT_EQ(ds.sample_rate_hz, 1000.0);
   EXPECT_EQ(ds.controller.kd, 243.45);
-  EXPECT_EQ(ds.controller.derivative_on, ControllerConfig::DerivativeOn::Measurement);
+  EXPECT_EQ(ds.controller.derivative_on, DerivativeOn::kMeasurement);
   EXPECT_EQ(ds.controller.v_limit, 10.0);
   expect_contains(ds.extra_json, {"EMPS benchmark"});
   ASSERT_EQ(ds.runs.size(), 1u);

@@ -10,9 +10,12 @@
 #include "alphainv/error.hpp"
 #include "alphainv/model/inertia_model.hpp"
 #include "alphainv/simulate/reference.hpp"
+#include "support/error_of.hpp"
 
 namespace alphainv {
 namespace {
+
+using test::error_of;
 
 /// A dataset made by the α-model itself (fixed point + RK4), at `poses`, with the Table 1 sweep
 /// and one 0.25 Hz square run per pose, the plant with `effects`. Ground truth:
@@ -74,6 +77,31 @@ TEST(FitPipeline, RecoversModelFromItsOwnSimulation) {
   ASSERT_TRUE(std::isfinite(fit.alpha_errors.step_median_abs_err));
   EXPECT_GT(fit.linear_errors.step_median_abs_err / fit.alpha_errors.step_median_abs_err, 2.6);
   EXPECT_LT(fit.alpha_errors.phase_p90_deg, 0.5 * fit.linear_errors.phase_p90_deg);
+  // What it identified, in one line and in full.
+  ASSERT_TRUE(fit.usable());
+  EXPECT_EQ(fit.message,
+            "identified: a linear model at 7 of 7 poses (7 by the sine runs (22), every pose with "
+            "angles by the inertia model (27)-(29)), the α-model (sine (2.3.5))");
+  EXPECT_EQ(fit.brief_report(),
+            "dataset fit: usable; 70 runs, 7 poses, 63 sine points (0 non-physical); linear model "
+            "at 7 of 7 poses, inertia model, α-model (sine (2.3.5)); step median |θ_sim − θ|: "
+            "linear 0.004111, α 7.072e-08");
+  const std::string full = fit.full_report();
+  EXPECT_EQ(full.substr(0, full.find('\n')), fit.brief_report());
+  for (const std::string& line :
+       {fit.message,
+        std::string("  local points (19)-(20), (36): 63 from the sine runs, kp 2, continuous loop"),
+        std::string("  linear model at 21.54° / 69.54°: C_linear 5.278 1/s, β̃_linear 217.9, I "
+                    "0.004587 (sine (22))"),
+        "  " + fit.inertia.brief_report(),
+        std::string("  α-model (sine (2.3.5)): N = 4, α_n = 0, 2.2, 25, 203.8; C_n1 = 13.24, "
+                    "21.14, 34.62, 52.45; β̃_n1 = 0.8389, 1.189 at α = 0, 203.8; RMS relative "
+                    "error C 0.06 %, β̃ 0.03 %"),
+        std::string("  validation, linear model: mag p90 0.4909, phase p90 11.83°, step median "
+                    "0.004111, step p90 0.02153, relative position error median 0.1587"),
+        "    - " + fit.notes.front()}) {
+    EXPECT_NE(full.find(line + "\n"), std::string::npos) << line << "\nin\n" << full;
+  }
 }
 
 TEST(FitPipeline, OnePoseSaysWhyNoInertiaModel) {
@@ -96,7 +124,7 @@ TEST(FitPipeline, DigitalLoopCorrectionFollowsTheSampleRateAndCanBeSwitchedOff) 
   std::vector<RunData> data;
   make_dataset({{60.08, 87.00}}, ds, data);
   FitPipelineOptions o;
-  o.validate = false;
+  o.run_validation = false;
   auto said = [](const DatasetFit& f, const char* what) {
     bool found = false;
     for (const auto& n : f.notes) found = found || n.find(what) != std::string::npos;
@@ -130,12 +158,24 @@ TEST(FitPipeline, NoSineRunsSaysSoWithoutTheTimeDomainFit) {
   for (auto& r : ds.runs) r.kind = "other";
   FitPipelineOptions o;
   o.time_domain = false;
+  o.run_validation = false;
   const DatasetFit fit = fit_dataset(ds, data, o);
   EXPECT_FALSE(fit.alpha.ok);
   EXPECT_FALSE(fit.poses[0].linear.valid);
   bool said = false;
   for (const auto& n : fit.notes) said = said || n.find("no sine runs") != std::string::npos;
   EXPECT_TRUE(said);
+  // Not usable, and its reports say so.
+  EXPECT_FALSE(fit.usable());
+  EXPECT_EQ(fit.message, "no model could be identified: no pose has a linear model and there is "
+                         "no α-model (the notes say why)");
+  EXPECT_EQ(fit.brief_report(),
+            "dataset fit: NOT usable; 10 runs, 1 poses, 0 sine points (0 non-physical); linear "
+            "model at 0 of 1 poses, no inertia model, no α-model");
+  const std::string full = fit.full_report();
+  EXPECT_NE(full.find("  validation: not run\n"), std::string::npos) << full;
+  EXPECT_NE(full.find("  inertia model: none\n"), std::string::npos) << full;
+  EXPECT_NE(full.find("    - no sine runs with freq_hz under a P law"), std::string::npos) << full;
 }
 
 TEST(FitPipeline, NoSineRunsFitsInTheTimeDomain) {
@@ -258,12 +298,33 @@ TEST(FitPipeline, KnownEffectsOutOfRangeThrowNamingTheField) {
   make_dataset({{60.08, 87.00}}, ds, data);
   FitPipelineOptions o;
   o.effects.coulomb_v = -1.0;
-  try {
-    fit_dataset(ds, data, o);
-    FAIL() << "no error";
-  } catch (const Error& e) {
-    EXPECT_EQ(e.field(), "FitPipelineOptions::effects.coulomb_v");
-  }
+  EXPECT_EQ(error_of([&] { fit_dataset(ds, data, o); }).field(),
+            "FitPipelineOptions::effects.coulomb_v");
+}
+
+TEST(FitPipeline, OptionsValidateThemselvesNamingTheField) {
+  EXPECT_NO_THROW(FitPipelineOptions{}.validate());
+  auto field = [](const FitPipelineOptions& o) { return error_of([&] { o.validate(); }).field(); };
+  FitPipelineOptions o;
+  o.settle_fraction = 1.0;
+  EXPECT_EQ(field(o), "FitPipelineOptions::settle_fraction");
+  o = FitPipelineOptions{};
+  o.n_breakpoints = 9;
+  EXPECT_EQ(field(o), "FitPipelineOptions::n_breakpoints");
+  o = FitPipelineOptions{};
+  o.loop_period_s = -1e-3;
+  EXPECT_EQ(field(o), "FitPipelineOptions::loop_period_s");
+  o.loop_period_s = 0.0;  // off
+  EXPECT_NO_THROW(o.validate());
+  o.effects.delay_s = -1.0;
+  EXPECT_EQ(field(o), "FitPipelineOptions::effects.delay_s");
+  o = FitPipelineOptions{};
+  o.n_breakpoints = 1;
+  Dataset ds;
+  std::vector<RunData> data;
+  make_dataset({{60.08, 87.00}}, ds, data);
+  EXPECT_STREQ(error_of([&] { fit_dataset(ds, data, o); }).what(),
+               "'FitPipelineOptions::n_breakpoints': expected 2 to 8 breakpoints, got 1");
 }
 
 TEST(FitPipeline, ReportsProgressOfEveryStage) {

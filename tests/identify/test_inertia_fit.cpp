@@ -15,9 +15,9 @@
 #include <vector>
 
 #include "alphainv/identify/detail/inertia_fit_residual.hpp"
-#include "alphainv/error.hpp"
 #include "alphainv/identify/inertia_fit.hpp"
 #include "alphainv/model/inertia_model.hpp"
+#include "support/error_of.hpp"
 
 namespace alphainv {
 namespace {
@@ -421,10 +421,15 @@ TEST(InertiaFit, BadInputGivesNonConvergedSummaryWithMessage) {
 
   InertiaFitOptions options;
   options.gamma_offs_starts_rad = {deg_to_rad(120.0)};
-  expect_not_fitted(good, "options: gamma_offs start", options);
+  expect_not_fitted(good,
+                    "invalid options: 'InertiaFitOptions::gamma_offs_starts_rad[0]': expected a "
+                    "gamma_offs start in [-1.5708, 1.5708] rad, got 2.0944",
+                    options);
   options = InertiaFitOptions{};
   options.max_iterations = 0;
-  expect_not_fitted(good, "options: max_iterations", options);
+  expect_not_fitted(good,
+                    "'InertiaFitOptions::max_iterations': expected max_iterations >= 1, got 0",
+                    options);
 }
 
 // Degenerate but valid input: six poses at the same angles cannot determine six parameters. The
@@ -449,14 +454,27 @@ TEST(InertiaFit, RankDeficientInputReportsCovarianceFailure) {
   }
 }
 
-TEST(InertiaFitOptions, DefaultsAreValid) {
-  std::string error;
-  EXPECT_TRUE(InertiaFitOptions{}.validate(&error)) << error;
+TEST(InertiaFitOptions, DefaultsAreValidAndBadSettingsAreNamed) {
+  EXPECT_NO_THROW(InertiaFitOptions{}.validate());
+  auto rejected_field = [](const InertiaFitOptions& o) {
+    return test::error_of([&] { o.validate(); }).field();
+  };
   InertiaFitOptions o;
   o.gamma_offs_min_rad = 1.0;
   o.gamma_offs_max_rad = -1.0;
-  EXPECT_FALSE(o.validate(&error));
-  EXPECT_NE(error.find("gamma_offs_min_rad"), std::string::npos);
+  EXPECT_EQ(rejected_field(o), "InertiaFitOptions::gamma_offs_min_rad");
+  o = InertiaFitOptions{};
+  o.inertia_scale_starts = {1.0, -0.5};
+  EXPECT_EQ(rejected_field(o), "InertiaFitOptions::inertia_scale_starts[1]");
+  o = InertiaFitOptions{};
+  o.gradient_tolerance = std::nan("");
+  EXPECT_EQ(rejected_field(o), "InertiaFitOptions::gradient_tolerance");
+  o = InertiaFitOptions{};
+  o.poorly_determined_correlation = 1.5;
+  EXPECT_EQ(rejected_field(o), "InertiaFitOptions::poorly_determined_correlation");
+  o = InertiaFitOptions{};
+  o.gamma_offs_starts_rad.clear();
+  EXPECT_EQ(rejected_field(o), "InertiaFitOptions::gamma_offs_starts_rad");
   EXPECT_STREQ(inertia_fit_parameter_name(kC0Bar), "C0_bar");
   EXPECT_STREQ(inertia_fit_parameter_name(6), "?");
 }

@@ -31,6 +31,18 @@ std::vector<RunData> plant_runs(const Effects& fx, double c, double bt, std::uin
   return runs;
 }
 
+/// `n` samples at 1 kHz of a joint at rest under a constant reference of 0.01.
+RunData resting_run(int n) {
+  RunData d;
+  for (int k = 0; k < n; ++k) {
+    d.t.push_back(k * 1e-3);
+    d.r.push_back(0.01);
+    d.theta.push_back(0);
+    d.v.push_back(0);
+  }
+  return d;
+}
+
 TEST(OutputError, RecoversLinearModelCoulombAndOffsetFromTheVirtualPlant) {
   Effects fx;
   fx.coulomb_v = 0.01;
@@ -69,6 +81,19 @@ TEST(OutputError, RecoversLinearModelCoulombAndOffsetFromTheVirtualPlant) {
   }
   // The truth lies within a few standard errors (they are optimistic: correlated residuals).
   EXPECT_LT(std::abs(res.values[0] - c_true), 20 * res.standard_errors[0] + 0.005 * c_true);
+  EXPECT_TRUE(res.usable());
+  EXPECT_EQ(res.parameter_names,
+            (std::vector<std::string>{"c", "beta_tilde", "coulomb_v", "offset_v"}));
+  EXPECT_EQ(res.brief_report(),
+            "output-error fit: usable, 4 parameters, RMS of θ − θ_sim 7.684e-05, 7 iterations, "
+            "429 simulations");
+  const std::string full = res.full_report();
+  for (const char* line : {"  c = 7.50096 ± 0.000315", "  offset_v = -0.00400017 ± 1.63e-06",
+                           "  run 2: RMS of θ − θ_sim 7.076e-05"}) {
+    EXPECT_NE(full.find(std::string("\n") + line + "\n"), std::string::npos)
+        << line << "\n" << full;
+  }
+  EXPECT_NE(full.find("\n  Ceres Solver Report: Iterations: "), std::string::npos) << full;
 }
 
 TEST(OutputError, InitialStateIsTheFirstSampleAndSlope) {
@@ -95,16 +120,34 @@ TEST(OutputError, BadProblemsGiveAMessage) {
   const OutputErrorResult r = fit_output_error(pr);
   EXPECT_FALSE(r.ok);
   EXPECT_NE(r.message.find("fewer than 10"), std::string::npos) << r.message;
-  RunData e;
-  for (int k = 0; k < 50; ++k) {
-    e.t.push_back(k * 1e-3);
-    e.r.push_back(0.01);
-    e.theta.push_back(0);
-    e.v.push_back(0);
-  }
+  const RunData e = resting_run(50);
   pr.runs = {{&e, Controller{}, 1.0, {}}};
   pr.parameters = {{"c", 5.0, 6.0, 7.0}};
   EXPECT_NE(fit_output_error(pr).message.find("outside its bounds"), std::string::npos);
+  EXPECT_EQ(fit_output_error(pr).brief_report(),
+            "output-error fit: NOT usable: parameter c: initial value outside its bounds");
+}
+
+TEST(OutputError, InvalidOptionsAreNamedInTheResultNotThrown) {
+  OutputErrorOptions o;
+  EXPECT_NO_THROW(o.validate());
+  const RunData e = resting_run(50);
+  OutputErrorProblem pr;
+  pr.runs = {{&e, Controller{}, 1.0, {}}};
+  pr.parameters = {{"c", 5.0, 1.0, 10.0}, {"beta_tilde", 200.0, 10.0, 1e3}};
+  pr.model = [](const double*, std::size_t) { return JointModelAtPose{}; };
+  o.max_iterations = 0;
+  OutputErrorResult r = fit_output_error(pr, o);
+  EXPECT_FALSE(r.usable());
+  EXPECT_EQ(r.message, "invalid options: 'OutputErrorOptions::max_iterations': expected at least 1 "
+                       "iteration, got 0");
+  o = OutputErrorOptions{};
+  o.extra_starts = {{5.0, 200.0}, {5.0, std::nan("")}};
+  r = fit_output_error(pr, o);
+  EXPECT_FALSE(r.usable());
+  EXPECT_NE(r.message.find("'OutputErrorOptions::extra_starts[1][1]': expected a finite number"),
+            std::string::npos)
+      << r.message;
 }
 
 }  // namespace

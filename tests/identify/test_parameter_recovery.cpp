@@ -229,7 +229,7 @@ void expect_inertia_recovered(const ExperimentPlan& plan, const DatasetFit& fit)
 
 FitPipelineOptions fast_options() {
   FitPipelineOptions o;
-  o.validate = false;
+  o.run_validation = false;
   return o;
 }
 

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "alphainv/simulate/virtual_omni.hpp"
+#include "support/error_of.hpp"
 
 namespace alphainv {
 namespace {
@@ -84,6 +85,14 @@ TEST(TimeDomainFit, LinearModelFromSquareAndMultisineRunsOfTheDigitalPlant) {
   // The equation-error start is close but biased (the hold's delay, noisy derivatives).
   EXPECT_NEAR(fit.beta_tilde_equation_error, bt, 0.3 * bt);
   EXPECT_LT(fit.rms, 2e-4);
+  EXPECT_TRUE(fit.usable());
+  EXPECT_EQ(fit.brief_report(),
+            "time-domain linear fit: usable, C = 8.999 ± 0.0013 1/s, β̃ = 179.9 ± 0.01, RMS of "
+            "θ − θ_sim 0.0001257");
+  const std::string full = fit.full_report();
+  EXPECT_EQ(full, fit.brief_report() + "\n  equation-error start: C = 8.532 1/s, β̃ = 175.4\n  " +
+                      fit.message + "\n");
+  EXPECT_EQ(fit.message.rfind("Ceres Solver Report: Iterations: ", 0), 0u) << fit.message;
 }
 
 TEST(TimeDomainFit, AlphaModelFromTimeDomainRunsMatchesTheTruthAlongTheData) {
@@ -110,6 +119,17 @@ TEST(TimeDomainFit, AlphaModelFromTimeDomainRunsMatchesTheTruthAlongTheData) {
     const double truth = p.alpha_model.damping(a, inertia);
     EXPECT_NEAR(al.model.damping(a, 1.0), truth, 0.15 * truth) << "alpha " << a;
   }
+  EXPECT_TRUE(al.usable());
+  EXPECT_EQ(al.brief_report(),
+            "time-domain α fit: usable, N = 4 breakpoints up to α = 11.23 (the commands reach "
+            "1114), RMS of θ − θ_sim 0.0006461");
+  const std::string full = al.full_report();
+  for (const char* line :
+       {"  α_0 = 0: C_0 = 16.58 ± 0.084 1/s", "  α_3 = 11.23: C_3 = 9.218 ± 0.015 1/s",
+        "  β̃_1 = 236.5 ± 0.19 at α = 11.23"}) {
+    EXPECT_NE(full.find(std::string("\n") + line + "\n"), std::string::npos)
+        << line << "\n" << full;
+  }
 }
 
 TEST(TimeDomainFit, NoExcitationGivesAMessage) {
@@ -124,6 +144,45 @@ TEST(TimeDomainFit, NoExcitationGivesAMessage) {
   const TimeDomainLinearFit fit = fit_linear_time_domain({{&d, ctl}});
   EXPECT_FALSE(fit.ok);
   EXPECT_NE(fit.message.find("excite"), std::string::npos) << fit.message;
+  EXPECT_FALSE(fit.usable());
+  EXPECT_EQ(fit.brief_report(), "time-domain linear fit: NOT usable: " + fit.message);
+}
+
+TEST(TimeDomainFit, InvalidOptionsAreNamedInTheResultNotThrown) {
+  TimeDomainFitOptions o;
+  EXPECT_NO_THROW(o.validate());
+  o.smoothing_window_s = 0.0;
+  EXPECT_EQ(test::error_of([&] { o.validate(); }).field(),
+            "TimeDomainFitOptions::smoothing_window_s");
+  RunData d;
+  for (int k = 0; k < 500; ++k) {
+    d.t.push_back(1e-3 * k);
+    d.r.push_back(0.01 * std::sin(10.0 * d.t.back()));
+    d.theta.push_back(0.0);
+    d.v.push_back(0.0);
+  }
+  const std::vector<TimeDomainRun> runs = {{&d, Controller{}}};
+  const TimeDomainLinearFit lin = fit_linear_time_domain(runs, o);
+  EXPECT_FALSE(lin.usable());
+  EXPECT_EQ(lin.message,
+            "invalid options: 'TimeDomainFitOptions::smoothing_window_s': expected a finite number "
+            "> 0, got 0");
+  o = TimeDomainFitOptions{};
+  o.n_breakpoints = 9;
+  TimeDomainLinearFit start;
+  start.ok = true;
+  start.c_linear = 5.0;
+  start.beta_tilde_linear = 200.0;
+  const TimeDomainAlphaFit al = fit_alpha_time_domain(runs, start, o);
+  EXPECT_FALSE(al.usable());
+  EXPECT_EQ(al.brief_report(),
+            "time-domain α fit: NOT usable: invalid options: "
+            "'TimeDomainFitOptions::n_breakpoints': expected 2 to 8 breakpoints, got 9");
+  o = TimeDomainFitOptions{};
+  o.effects.coulomb_v = -0.1;
+  EXPECT_NE(
+      fit_linear_time_domain(runs, o).message.find("'TimeDomainFitOptions::effects.coulomb_v'"),
+      std::string::npos);
 }
 
 }  // namespace

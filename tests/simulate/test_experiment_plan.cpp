@@ -132,7 +132,7 @@ TEST(ExperimentPlan, DatasetIndexHasTheFormatFieldsAndTheTruth) {
   ASSERT_TRUE(back.sample_rate_hz.has_value());
   EXPECT_EQ(*back.sample_rate_hz, 1000.0);
   EXPECT_EQ(back.controller.kp, 2.0);
-  EXPECT_FALSE(back.controller.v_limit.has_value());
+  EXPECT_FALSE(back.controller.has_limit());
   ASSERT_EQ(back.runs.size(), 106u);
   for (std::size_t i = 0; i < back.runs.size(); ++i) {
     const RunInfo& r = back.runs[i];

@@ -16,33 +16,17 @@
 #include <string_view>
 #include <vector>
 
+#include "alphainv/model/controller.hpp"
+
 namespace alphainv {
 
 /// The value of the `format` key this library reads and writes.
 inline constexpr std::string_view kDatasetFormat = "alphainv-dataset/1";
 
-/// The PID law that made the command `v` from `r` and `theta` (the paper's eq. (10)):
-/// e = r - theta, v = kp e + ki ∫e dt + kd de/dt (or -kd dtheta/dt), clipped to ±v_limit.
-struct ControllerConfig {
-  /// What the derivative term differentiates.
-  enum class DerivativeOn {
-    Error,        ///< d(r - theta)/dt  (JSON "error", the default)
-    Measurement,  ///< -dtheta/dt       (JSON "measurement")
-  };
-
-  double kp = 0.0;  ///< proportional gain [command unit / position unit]
-  double ki = 0.0;  ///< integral gain [command unit / (position unit · s)]
-  double kd = 0.0;  ///< derivative gain [command unit · s / position unit]
-  DerivativeOn derivative_on = DerivativeOn::Error;  ///< see DerivativeOn
-  std::optional<double>
-      v_limit;  ///< command saturation ±v_limit [command unit], > 0; none: no limit
-
-  friend bool operator==(const ControllerConfig& a, const ControllerConfig& b) {
-    return a.kp == b.kp && a.ki == b.ki && a.kd == b.kd && a.derivative_on == b.derivative_on &&
-           a.v_limit == b.v_limit;
-  }
-  friend bool operator!=(const ControllerConfig& a, const ControllerConfig& b) { return !(a == b); }
-};
+/// The law the reader starts from before the dataset's `controller` object and `kp` shorthand
+/// apply: every gain 0 (kp = 0 means no P law is stated, which the fit skips), the derivative on
+/// the error, no limit. A default-constructed Dataset or RunInfo holds it too.
+inline constexpr Controller kUnstatedController{0.0};
 
 /// One entry of the `runs` list of dataset.json.
 struct RunInfo {
@@ -55,7 +39,7 @@ struct RunInfo {
   std::optional<double> gamma2_deg;  ///< measured pose of the other joint 2 [deg]
   /// The law in force for this run: the dataset's controller (with its `kp` shorthand), then
   /// this run's `controller` object and `kp` shorthand applied on top.
-  ControllerConfig controller;
+  Controller controller = kUnstatedController;
   /// The whole run object as read, as JSON text, so keys this library does not know are kept.
   /// On writing, the fields above replace the keys they stand for. Empty: no extra keys.
   std::string extra_json;
@@ -87,7 +71,8 @@ struct Dataset {
   std::string position_unit = "rad";     ///< "rad" or "m"
   std::string command_unit = "V";        ///< "V", "pwm", ...
   std::optional<double> sample_rate_hz;  ///< nominal sample rate [Hz]; the `t` column is the truth
-  ControllerConfig controller;           ///< the dataset-wide controller (runs may override it)
+  /// The dataset-wide controller (runs may override it).
+  Controller controller = kUnstatedController;
   std::vector<RunInfo> runs;             ///< at least one
   /// The dataset.json object as read, without `runs`, as JSON text, so unknown keys (`source`, ...)
   /// are kept. On writing, the fields above replace the keys they stand for. Empty: none.

@@ -33,8 +33,8 @@ struct EffectRefinement {
 /// Refines every fitted parameter (effect_parameters()) of the effects active in
 /// options.effects, from their values there, by bounded Nelder-Mead (NLopt) on the score of the
 /// file comment (at most max_evaluations fits); the returned fit is the one at the best values
-/// (options.validate is forced on). With no active effect, or no α-model, it returns the plain fit
-/// and `out->ok` false with the reason.
+/// (options.run_validation is forced on). With no active effect, or no α-model, it returns the
+/// plain fit and `out->ok` false with the reason.
 DatasetFit refine_effects(const Dataset& dataset, const std::vector<RunData>& data,
                           const FitPipelineOptions& options, EffectRefinement* out = nullptr,
                           int max_evaluations = 40);

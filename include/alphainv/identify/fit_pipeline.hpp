@@ -4,8 +4,9 @@
 /// simulation (section 2.4): local linear points per sine run, the global linear model per pose,
 /// the inertia model across poses, the α-invariant model, and Table 8 / Table 11 style errors of the
 /// linear and the α-model. Offline; never throws on what the data cannot support: it says so in
-/// `notes` and leaves the affected parts empty. Throws alphainv::Error only for unreadable input
-/// and for known effects out of range (FitPipelineOptions::effects).
+/// `notes` and leaves the affected parts empty (DatasetFit::usable(), `message`). Throws
+/// alphainv::Error only for options out of range (FitPipelineOptions::validate()). The stages
+/// one by one: fit_stages.hpp; report.md: fit_report.hpp.
 
 #include <cstddef>
 #include <functional>
@@ -26,15 +27,12 @@
 
 namespace alphainv {
 
-/// The PID law of a run as the simulator takes it.
-Controller to_controller(const ControllerConfig& config);
-
 /// Settings of fit_dataset().
 struct FitPipelineOptions {
   double settle_fraction = 0.5;   ///< sine runs: the first fraction of the run is transient
   std::size_t n_breakpoints = 4;  ///< N of the α-model
   unsigned threads = 0;           ///< validation simulations in parallel; 0: all cores
-  bool validate = true;           ///< simulate every run with both models
+  bool run_validation = true;     ///< simulate every run with both models (section 2.4)
   /// Poses without sine runs get their linear model (and the dataset its α-model, when no sine run
   /// gave one) by time-domain output error (time_domain_fit.hpp) on their runs.
   bool time_domain = true;
@@ -60,6 +58,11 @@ struct FitPipelineOptions {
   /// command also make the plant's α̂ swing within a period, which biases points on a steep
   /// stretch of C(α) (tests/test_parameter_recovery.cpp).
   Effects effects;
+
+  /// Throws alphainv::Error naming the first setting out of range ("FitPipelineOptions::…"):
+  /// settle_fraction in [0, 1), n_breakpoints in [2, kMaxBreakpoints], loop_period_s NaN, 0 or a
+  /// finite period > 0, and the effects (validate_effects()). fit_dataset() calls it.
+  void validate() const;
 };
 
 /// One sine run's local identification.
@@ -112,7 +115,8 @@ struct RunValidation {
   RunErrors linear, alpha;
 };
 
-/// Everything fit_dataset() finds.
+/// Everything fit_dataset() finds. Like the other results of identify: usable(), `message`, a
+/// one-line brief_report() and a full_report().
 struct DatasetFit {
   std::vector<SineRunPoint> sine_points;
   std::vector<PoseFit> poses;
@@ -132,8 +136,19 @@ struct DatasetFit {
   std::vector<RunValidation> validation;
   std::vector<std::string> notes;  ///< what could not be done, and why; choices made
   ModelErrors linear_errors, alpha_errors;  ///< medians over poses of the per-pose figures
+  /// What was identified, or that nothing could be (the notes say why); set last by
+  /// fit_dataset() (describe_fit(), fit_stages.hpp).
+  std::string message;
+
   /// The model at a run's pose, for simulation (linear and α parts, and `effects`).
   JointModelAtPose model_for_pose(std::size_t pose) const;
+  /// True when a model was identified: a linear model at some pose, or the α-model.
+  bool usable() const;
+  /// One line: usable or not, runs, poses, what was identified, the step errors of both models.
+  std::string brief_report() const;
+  /// Several lines: brief_report(), `message`, each stage's outcome (local points, linear models,
+  /// the inertia model's brief report, the α-model, the validation figures), then the notes.
+  std::string full_report() const;
 };
 
 /// Runs the identification and validation on `dataset` with its run data (`data[i]` of

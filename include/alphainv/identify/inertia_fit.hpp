@@ -78,8 +78,9 @@ struct InertiaFitOptions {
   /// … or when its |correlation| with another parameter exceeds this.
   double poorly_determined_correlation = 0.99;
 
-  /// True when usable; otherwise false and, if `error` is given, what is wrong.
-  bool validate(std::string* error = nullptr) const;
+  /// Throws alphainv::Error naming the first setting out of range ("InertiaFitOptions::…").
+  /// fit_inertia_model() calls it and returns a summary that is not converged, saying why.
+  void validate() const;
 };
 
 /// Model prediction at one pose, eqs. (27)-(29).
@@ -136,6 +137,8 @@ struct InertiaFitSummary {
   std::array<bool, kInertiaFitParameterCount> poorly_determined{};
   std::array<bool, kInertiaFitParameterCount> at_bound{};  ///< parameter on one of its bounds
 
+  /// True when the fit converged to a usable model (`converged`).
+  bool usable() const { return converged; }
   /// One line: converged?, cost, RMS, C̄0, flagged parameters.
   std::string brief_report() const;
   /// Several lines: parameters ± SE, correlations, per-fit statistics, message and warning.

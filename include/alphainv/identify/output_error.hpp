@@ -7,7 +7,8 @@
 /// free-form trajectories), so it fits datasets without sine runs, and it fits effect parameters
 /// (effects.hpp) together with the model. Solved by Ceres' Levenberg-Marquardt with bounds and
 /// central-difference Jacobians of the simulation, from one or more starts. Offline; never throws
-/// on what the data cannot support: the result says.
+/// on what the data cannot support, nor on invalid options: the result says (usable(), `message`,
+/// brief_report(), full_report()).
 
 #include <cstddef>
 #include <functional>
@@ -56,18 +57,31 @@ struct OutputErrorOptions {
   unsigned threads = 0;     ///< runs simulated in parallel; 0: all cores
   /// Extra starts (each a full parameter vector); the initial values are always the first start.
   std::vector<std::vector<double>> extra_starts;
+
+  /// Throws alphainv::Error naming the first setting out of range ("OutputErrorOptions::…"):
+  /// max_iterations ≥ 1, every extra start finite. fit_output_error() calls it and returns a
+  /// result that is not usable, with the error as its message.
+  void validate() const;
 };
 
 /// What fit_output_error() found.
 struct OutputErrorResult {
-  bool ok = false;
-  std::string message;                 ///< why not ok, or the solver's one-line report
+  bool ok = false;                     ///< see usable()
+  std::string message;                 ///< why not usable, or the solver's one-line report
+  std::vector<std::string> parameter_names;  ///< OutputErrorProblem::parameters' names
   std::vector<double> values;          ///< fitted parameters
   std::vector<double> standard_errors; ///< from (JᵀJ)⁻¹σ² at the solution (NaN: not available)
   double rms = std::numeric_limits<double>::quiet_NaN();  ///< weighted RMS of θ − θ_sim [position unit]
   std::vector<double> run_rms;         ///< RMS of θ − θ_sim per run over all samples
   int iterations = 0;                  ///< summed over starts
   long simulations = 0;                ///< run simulations done
+
+  /// True when a start gave a solution and every run simulates at it (`ok`).
+  bool usable() const { return ok; }
+  /// One line: usable or why not, parameters, RMS, iterations, simulations.
+  std::string brief_report() const;
+  /// brief_report(), every parameter ± SE, the RMS of each run, and `message`.
+  std::string full_report() const;
 };
 
 /// Fits the problem's parameters (see the file comment).

@@ -8,7 +8,8 @@
 ///  2. output error (output_error.hpp): C and β̃ (linear model), then C_0 … C_{N−1}, β̃_0, β̃_1 at
 ///     breakpoints placed at quantiles of the runs' α (α-model), each minimising the closed-loop
 ///     simulation error of θ under the runs' own controllers.
-/// Offline; never throws on what the data cannot support: the result says.
+/// Offline; never throws on what the data cannot support, nor on invalid options: the result says
+/// (usable(), `message`, brief_report(), full_report()).
 
 #include <array>
 #include <cstddef>
@@ -40,12 +41,18 @@ struct TimeDomainFitOptions {
   double smoothing_window_s = 0.01;  ///< half-width of the local quadratic fits of stage 1 [s]
   std::size_t max_residuals_per_run = 3000;  ///< output-error residual samples per run
   Effects effects;  ///< known effects kept fixed in the model (e.g. from `diagnose`)
+
+  /// Throws alphainv::Error naming the first setting out of range ("TimeDomainFitOptions::…"):
+  /// n_breakpoints in [2, kMaxBreakpoints], smoothing_window_s finite and > 0,
+  /// max_residuals_per_run ≥ 1, the effects (validate_effects()). The fits call it and return a
+  /// result that is not usable, with the error as its message.
+  void validate() const;
 };
 
 /// The linear model of a pose from time-domain data.
 struct TimeDomainLinearFit {
-  bool ok = false;
-  std::string message;
+  bool ok = false;      ///< see usable()
+  std::string message;  ///< why not usable, or the output-error solver's one-line report
   double c_equation_error = std::numeric_limits<double>::quiet_NaN();   ///< stage 1 C [1/s]
   double beta_tilde_equation_error = std::numeric_limits<double>::quiet_NaN();  ///< stage 1 β̃
   double c_linear = std::numeric_limits<double>::quiet_NaN();           ///< output error C [1/s]
@@ -53,17 +60,31 @@ struct TimeDomainLinearFit {
   double c_se = std::numeric_limits<double>::quiet_NaN();               ///< standard error of C
   double beta_tilde_se = std::numeric_limits<double>::quiet_NaN();      ///< standard error of β̃
   double rms = std::numeric_limits<double>::quiet_NaN();  ///< RMS of θ − θ_sim [position unit]
+
+  /// True when C and β̃ were fitted (`ok`): the equation-error start and the output error worked.
+  bool usable() const { return ok; }
+  /// One line: usable or why not, C ± SE, β̃ ± SE, the RMS of θ − θ_sim.
+  std::string brief_report() const;
+  /// brief_report(), the equation-error start, and `message`.
+  std::string full_report() const;
 };
 
 /// The α-model of a pose from time-domain data (inertia 1: C_n1 = 1/C_n, β̃_n1 = 1/β̃_n).
 struct TimeDomainAlphaFit {
-  bool ok = false;
-  std::string message;
+  bool ok = false;      ///< see usable()
+  std::string message;  ///< why not usable, or the output-error solver's one-line report
   AlphaModel model;
   std::array<double, kMaxBreakpoints> c_se{};  ///< standard errors of C_0 … C_{N−1} [1/s]
   std::array<double, 2> beta_tilde_se{};       ///< standard errors of β̃_0, β̃_1
   double rms = std::numeric_limits<double>::quiet_NaN();  ///< RMS of θ − θ_sim [position unit]
   double alpha_max = 0.0;  ///< largest α of the runs' commands (the data's α range ends there)
+
+  /// True when the α-model was fitted and is valid (`ok`).
+  bool usable() const { return ok; }
+  /// One line: usable or why not, N, the top breakpoint against the data's largest α, the RMS.
+  std::string brief_report() const;
+  /// brief_report(), C_n ± SE at every breakpoint, β̃_0, β̃_1 ± SE, and `message`.
+  std::string full_report() const;
 };
 
 /// Stage 1 and 2 for the linear model (26).

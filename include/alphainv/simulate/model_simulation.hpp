@@ -75,7 +75,5 @@ ModelRun simulate_model_run(const ModelFile& model, const JointModelAtPose& join
 /// `sample_rate_hz`), for write_dataset; `omni_fit fit` reads it.
 Dataset model_run_dataset(const ModelFile& model, const ModelRun& run, double sample_rate_hz);
 
-/// The PID law as the interchange format writes it (the inverse of to_controller).
-ControllerConfig to_controller_config(const Controller& controller);
 
 }  // namespace alphainv
