@@ -123,8 +123,6 @@ void validate_plant(const VirtualOmniParams& p, const std::string& prefix,
   }
 }
 
-}
-
 /// Rounds to 0.01°: the recorded pose is what the plant uses, exactly.
 double round_centidegree(double deg) { return std::round(deg * 100.0) / 100.0; }
 
