@@ -1,4 +1,5 @@
 #include "alphainv/diagnose/diagnose.hpp"
+#include "diagnose_stages.hpp"
 
 #include <algorithm>
 #include <atomic>
@@ -87,29 +88,11 @@ std::vector<std::size_t> choose_fit_runs(const std::vector<DiagnoseRun>& runs, s
   return out;
 }
 
-/// Scales of the data, for starts and bounds.
-struct DataScales {
-  double v_max = 1.0;          ///< largest |v| [command unit]
-  double theta_dot_rms = 1.0;  ///< RMS of the measured θ̇ [position unit/s]
-  double theta_min = 0.0, theta_max = 0.0;
-  double kp = 1.0;  ///< the first run's proportional gain [command unit / position unit]
+}  // namespace
 
-  /// What the effect table's search rules are sized by (EffectSpec).
-  EffectScales effect() const { return {v_max, kp, theta_min, theta_max}; }
-};
+namespace diagnose_detail {
 
-/// One effect kind's parameters as an output-error parameter block: names, starts, bounds.
-struct ParamBlock {
-  EffectKind kind;
-  std::vector<EffectParameter> params;
-  std::vector<double> start, lower, upper;
-};
-
-/// The implied torque residual n̂ = (θ̈ + C·θ̇)/β̃ − u along each fit run (inverse dynamics with the
-/// current model), with the measured θ, θ̇ at the same samples.
-struct TorqueResidual {
-  std::vector<double> n_hat, theta, theta_dot;
-};
+namespace {
 
 TorqueResidual torque_residual(const std::vector<DiagnoseRun>& runs,
                                const std::vector<std::size_t>& fit_runs,
@@ -291,117 +274,90 @@ double scan_start(const std::vector<DiagnoseRun>& runs, const std::vector<std::s
   return best;
 }
 
-/// Re-identification of the α-model with a candidate's effects in the plant input. The α-model is
-/// identified from the sine runs' steady states (section 2.3.5), which absorb an unmodelled effect
-/// (a spring shifts C and β̃ with ω, a delay adds phase, friction adds damping), breakpoints and
-/// all: a candidate added to that model would have to undo the distortion through a few
-/// coefficient factors, and misses. Here the local points are taken again with the plant input
-/// through the candidate's effects (effect_sine_point.hpp) and the α-model is fitted again
-/// (alpha_fit.hpp: breakpoints by the grid search, then the two-stage fit), with each pose's
-/// inertia as the runs' models have it, so the result replaces their α-model. Usable when the
-/// runs carry one α-model and sine runs under a P law at one kp.
-class Reidentifier {
- public:
-  Reidentifier(const std::vector<DiagnoseRun>& runs, double sample_period_s)
-      : sample_period_s_(sample_period_s) {
-    if (runs.empty() || !runs.front().model.use_alpha) return;
-    const AlphaModel& a = runs.front().model.alpha;
-    options_.n_breakpoints = a.n_breakpoints;
-    // The grid search alone: its winner does not move with the small changes of the points a
-    // small effect makes, so the model is continuous in the effect's parameters there (the local
-    // refinement is not, and would let a candidate win by a luckier α-model alone).
-    options_.refine = false;
-    for (const DiagnoseRun& r : runs) {
-      if (!r.model.use_alpha || r.model.alpha.alpha != a.alpha ||
-          r.model.alpha.n_breakpoints != a.n_breakpoints || r.model.alpha.c_n1 != a.c_n1) {
-        return;  // runs with different α-models: not one model to replace
-      }
-      if (r.kind != "sine" || !r.freq_hz || !(*r.freq_hz > 0.0)) continue;
-      const Controller& c = r.controller;
-      if (!(c.kp > 0.0) || c.ki != 0.0 || c.kd != 0.0) continue;
-      if (options_.kp != c.kp && !sines_.empty()) continue;  // one kp (the first sine run's)
-      options_.kp = c.kp;
-      const RunData& d = *r.data;
-      const IndexRange w = steady_state_window(d.t, *r.freq_hz, 0.5 * (d.t.back() - d.t.front()));
-      if (w.size() < 8) continue;
-      // Poses by their inertia (a pose's runs share its model).
-      std::size_t pose = inertia_.size();
-      for (std::size_t k = 0; k < inertia_.size(); ++k) {
-        if (inertia_[k] == r.model.inertia) pose = k;
-      }
-      if (pose == inertia_.size()) inertia_.push_back(r.model.inertia);
-      sines_.push_back({&r, w, pose});
+}  // namespace
+
+Reidentifier::Reidentifier(const std::vector<DiagnoseRun>& runs, double sample_period_s)
+    : sample_period_s_(sample_period_s) {
+  if (runs.empty() || !runs.front().model.use_alpha) return;
+  const AlphaModel& a = runs.front().model.alpha;
+  options_.n_breakpoints = a.n_breakpoints;
+  // The grid search alone: its winner does not move with the small changes of the points a
+  // small effect makes, so the model is continuous in the effect's parameters there (the local
+  // refinement is not, and would let a candidate win by a luckier α-model alone).
+  options_.refine = false;
+  for (const DiagnoseRun& r : runs) {
+    if (!r.model.use_alpha || r.model.alpha.alpha != a.alpha ||
+        r.model.alpha.n_breakpoints != a.n_breakpoints || r.model.alpha.c_n1 != a.c_n1) {
+      return;  // runs with different α-models: not one model to replace
     }
-    usable_ = sines_.size() >= options_.n_breakpoints + 1;
-  }
-
-  bool usable() const { return usable_; }
-
-  /// The α-model identified with effects `e` in the plant input; nullopt when it fails.
-  std::optional<AlphaModel> fit(const Effects& e) const {
-    if (!usable_) return std::nullopt;
-    const AlphaFitResult r = fit_alpha_model(points(e), options_);
-    if (!r.ok || !r.model.valid()) return std::nullopt;
-    return r.model;
-  }
-
-  /// The sine runs' local points with effects `e` in the plant input, by pose.
-  std::vector<AlphaFitPose> points(const Effects& e) const {
-    std::vector<AlphaFitPose> poses(inertia_.size());
-    for (std::size_t k = 0; k < poses.size(); ++k) poses[k].inertia = inertia_[k];
-    for (const SineRun& s : sines_) {
-      poses[s.pose].points.push_back(sine_point_with_effects(*s.run->data, s.window, *s.run->freq_hz,
-                                                             options_.kp, sample_period_s_, e));
+    if (r.kind != "sine" || !r.freq_hz || !(*r.freq_hz > 0.0)) continue;
+    const Controller& c = r.controller;
+    if (!(c.kp > 0.0) || c.ki != 0.0 || c.kd != 0.0) continue;
+    if (options_.kp != c.kp && !sines_.empty()) continue;  // one kp (the first sine run's)
+    options_.kp = c.kp;
+    const RunData& d = *r.data;
+    const IndexRange w = steady_state_window(d.t, *r.freq_hz, 0.5 * (d.t.back() - d.t.front()));
+    if (w.size() < 8) continue;
+    // Poses by their inertia (a pose's runs share its model).
+    std::size_t pose = inertia_.size();
+    for (std::size_t k = 0; k < inertia_.size(); ++k) {
+      if (inertia_[k] == r.model.inertia) pose = k;
     }
-    return poses;
+    if (pose == inertia_.size()) inertia_.push_back(r.model.inertia);
+    sines_.push_back({&r, w, pose});
   }
+  usable_ = sines_.size() >= options_.n_breakpoints + 1;
+}
 
-  /// The α-model with effects `e` at the given breakpoints; nullopt when it fails.
-  std::optional<AlphaModel> fit_at(const Effects& e, const std::vector<double>& breakpoints) const {
-    if (!usable_) return std::nullopt;
-    const AlphaFitResult r = fit_alpha_model_at(points(e), breakpoints, options_);
-    if (!r.ok || !r.model.valid()) return std::nullopt;
-    return r.model;
+std::optional<AlphaModel> Reidentifier::fit(const Effects& e) const {
+  if (!usable_) return std::nullopt;
+  const AlphaFitResult r = fit_alpha_model(points(e), options_);
+  if (!r.ok || !r.model.valid()) return std::nullopt;
+  return r.model;
+}
+
+std::vector<AlphaFitPose> Reidentifier::points(const Effects& e) const {
+  std::vector<AlphaFitPose> poses(inertia_.size());
+  for (std::size_t k = 0; k < poses.size(); ++k) poses[k].inertia = inertia_[k];
+  for (const SineRun& s : sines_) {
+    poses[s.pose].points.push_back(sine_point_with_effects(*s.run->data, s.window, *s.run->freq_hz,
+                                                           options_.kp, sample_period_s_, e));
   }
+  return poses;
+}
 
-  /// The α-model with effects `e`: the grid winner (fit()), with `refined` also the winner refined
-  /// off the grid (as fit_dataset() does), and the models at the next `runners_up` best
-  /// breakpoint sets of the grid search.
-  std::vector<AlphaModel> variants(const Effects& e, std::size_t runners_up, bool refined) const {
-    std::vector<AlphaModel> out;
-    if (!usable_) return out;
-    const std::vector<AlphaFitPose> poses = points(e);
-    AlphaFitOptions o = options_;
-    o.keep_runners_up = runners_up;
-    o.refine = refined;
-    o.refine_max_evaluations = 150;
-    const AlphaFitResult r = fit_alpha_model(poses, o);
-    if (!r.ok || !r.model.valid()) return out;
-    out.push_back(r.model);
-    if (r.refined) {  // and the grid winner it started from
-      const AlphaFitResult g = fit_alpha_model(poses, options_);
-      if (g.ok && g.model.valid()) out.push_back(g.model);
-    }
-    for (const auto& bp : r.runners_up) {
-      const AlphaFitResult v = fit_alpha_model_at(poses, bp, o);
-      if (v.ok && v.model.valid()) out.push_back(v.model);
-    }
-    return out;
+std::optional<AlphaModel> Reidentifier::fit_at(const Effects& e,
+                                               const std::vector<double>& breakpoints) const {
+  if (!usable_) return std::nullopt;
+  const AlphaFitResult r = fit_alpha_model_at(points(e), breakpoints, options_);
+  if (!r.ok || !r.model.valid()) return std::nullopt;
+  return r.model;
+}
+
+std::vector<AlphaModel> Reidentifier::variants(const Effects& e, std::size_t runners_up,
+                                               bool refined) const {
+  std::vector<AlphaModel> out;
+  if (!usable_) return out;
+  const std::vector<AlphaFitPose> poses = points(e);
+  AlphaFitOptions o = options_;
+  o.keep_runners_up = runners_up;
+  o.refine = refined;
+  o.refine_max_evaluations = 150;
+  const AlphaFitResult r = fit_alpha_model(poses, o);
+  if (!r.ok || !r.model.valid()) return out;
+  out.push_back(r.model);
+  if (r.refined) {  // and the grid winner it started from
+    const AlphaFitResult g = fit_alpha_model(poses, options_);
+    if (g.ok && g.model.valid()) out.push_back(g.model);
   }
+  for (const auto& bp : r.runners_up) {
+    const AlphaFitResult v = fit_alpha_model_at(poses, bp, o);
+    if (v.ok && v.model.valid()) out.push_back(v.model);
+  }
+  return out;
+}
 
- private:
-  struct SineRun {
-    const DiagnoseRun* run;
-    IndexRange window;
-    std::size_t pose;
-  };
-
-  double sample_period_s_ = 0.0;
-  AlphaFitOptions options_;
-  std::vector<double> inertia_;
-  std::vector<SineRun> sines_;
-  bool usable_ = false;
-};
+namespace {
 
 /// The new effect's parameters searched with the α-model re-identified at every value (unit
 /// coefficient factors).
@@ -545,7 +501,180 @@ bool search_reidentified(EffectKind kind, const Effects& e, const DataScales& sc
   return std::isfinite(s.best_rms);
 }
 
-/// Residual location and its words.
+/// The residual location's words: the concentrations of 1.5× or more, the frequency trend and
+/// the worst runs.
+void describe_location(const std::vector<DiagnoseRun>& runs, ResidualLocation& loc) {
+  // Words.
+  auto say = [&](double c, const std::string& where) {
+    if (std::isfinite(c) && c >= 1.5)
+      loc.findings.push_back("errors concentrate " + where + ": " + num(c, "%.1f") +
+                             "× their share of the samples");
+  };
+  say(loc.reversal_concentration, "at velocity reversals (|θ̇| below 10 % of its largest value)");
+  say(loc.jump_concentration, "in the 0.15 s after reference jumps (timing, transients)");
+  say(loc.high_command_concentration, "where |v| is largest (top 10 % of each run)");
+  say(loc.low_command_concentration, "where |v| is smallest (bottom 10 % of each run)");
+  say(loc.high_alpha_concentration, "where α is largest (top 10 % of each run)");
+  if (std::isfinite(loc.low_vs_high_frequency)) {
+    if (loc.low_vs_high_frequency >= 1.5) {
+      loc.findings.push_back("errors concentrate in the low-frequency sine runs: their RMS error "
+                             "relative to the amplitude is " + num(loc.low_vs_high_frequency, "%.1f") +
+                             "× that of the high-frequency ones");
+    } else if (loc.low_vs_high_frequency <= 1.0 / 1.5) {
+      loc.findings.push_back("errors concentrate in the high-frequency sine runs: their RMS error "
+                             "relative to the amplitude is " + num(1.0 / loc.low_vs_high_frequency, "%.1f") +
+                             "× that of the low-frequency ones");
+    }
+  }
+  // The worst runs.
+  std::vector<std::size_t> order;
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    if (std::isfinite(loc.run_rms[i])) order.push_back(i);
+  }
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return loc.run_rms[a] > loc.run_rms[b]; });
+  if (order.size() >= 2) {
+    std::string s = "largest errors in runs ";
+    for (std::size_t k = 0; k < std::min<std::size_t>(3, order.size()); ++k) {
+      s += (k ? ", " : "") + runs[order[k]].name + " (RMS " + num(loc.run_rms[order[k]]) + ")";
+    }
+    s += "; overall RMS " + num(loc.rms);
+    loc.findings.push_back(s);
+  }
+  if (loc.findings.size() <= 1) {
+    loc.findings.insert(loc.findings.begin(),
+                        "the residual is spread over the state: no concentration of 1.5× or more "
+                        "at reversals, jumps, large or small |v| or α");
+  }
+}
+
+}  // namespace
+
+namespace {
+
+/// Cuts the fit runs of `p.runs` (copies of `runs_in`) to their last `fit_window_s` (0: whole
+/// runs), each started from the measured state there with the 0.3 s of commands before as its
+/// history (the α filter and the delay line start as the run left them).
+void cut_fit_windows(const std::vector<DiagnoseRun>& runs_in, double fit_window_s,
+                     PreparedRuns& p) {
+  p.window_data.resize(p.fit_runs.size());
+  for (std::size_t j = 0; j < p.fit_runs.size(); ++j) {
+    const RunData& d = *runs_in[p.fit_runs[j]].data;
+    std::size_t k0 = 0;
+    if (fit_window_s > 0.0) {
+      while (k0 + 50 < d.size() && d.t.back() - d.t[k0] > fit_window_s) ++k0;
+    }
+    RunData& w = p.window_data[j];
+    // The α filter and the delay line start as the run left them: 0.3 s of commands before.
+    const std::size_t h0 = k0 > 300 ? k0 - 300 : 0;
+    p.runs[p.fit_runs[j]].command_history.assign(d.v.begin() + static_cast<std::ptrdiff_t>(h0),
+                                                 d.v.begin() + static_cast<std::ptrdiff_t>(k0));
+    w.t.assign(d.t.begin() + static_cast<std::ptrdiff_t>(k0), d.t.end());
+    w.r.assign(d.r.begin() + static_cast<std::ptrdiff_t>(k0), d.r.end());
+    w.theta.assign(d.theta.begin() + static_cast<std::ptrdiff_t>(k0), d.theta.end());
+    w.v.assign(d.v.begin() + static_cast<std::ptrdiff_t>(k0), d.v.end());
+    p.runs[p.fit_runs[j]].data = &w;
+  }
+}
+
+/// The data scales of the fit windows; `kp` the first run's gain.
+DataScales data_scales(const std::vector<DiagnoseRun>& runs,
+                       const std::vector<std::size_t>& fit_runs, double kp) {
+  DataScales sc;
+  double vd2 = 0, n = 0;
+  sc.theta_min = kInf;
+  sc.theta_max = -kInf;
+  for (std::size_t i : fit_runs) {
+    const RunData& d = *runs[i].data;
+    std::vector<double> dth, ddth;
+    local_quadratic_derivatives(d.t, d.theta, 0.01, dth, ddth);
+    for (std::size_t k = 0; k < d.size(); ++k) {
+      sc.v_max = std::max(sc.v_max == 1.0 && k == 0 && i == fit_runs.front() ? 0.0 : sc.v_max,
+                          std::abs(d.v[k]));
+      vd2 += dth[k] * dth[k];
+      n += 1;
+      sc.theta_min = std::min(sc.theta_min, d.theta[k]);
+      sc.theta_max = std::max(sc.theta_max, d.theta[k]);
+    }
+  }
+  if (!(sc.v_max > 0)) sc.v_max = 1.0;
+  sc.theta_dot_rms = n > 0 ? std::sqrt(vd2 / n) : 1.0;
+  if (!(sc.theta_dot_rms > 0)) sc.theta_dot_rms = 1.0;
+  sc.kp = kp;
+  return sc;
+}
+
+/// Folds: the first and the second half (in time) of every fit window, each started from the
+/// measured state with its command history. Both folds see every run, so the model's
+/// coefficient factors stay determined; fitting one half and predicting the other tests the
+/// effect on data it was not fitted on. Appends the halves to `p.runs`.
+void split_folds(PreparedRuns& p) {
+  std::vector<DiagnoseRun>& runs = p.runs;
+  p.half_data.resize(2 * p.fit_runs.size());
+  for (std::size_t j = 0; j < p.fit_runs.size(); ++j) {
+    const DiagnoseRun src = runs[p.fit_runs[j]];  // a copy: runs grows below
+    const RunData& w = *src.data;
+    const std::size_t mid = w.size() / 2;
+    for (int f = 0; f < 2; ++f) {
+      const std::size_t a = f == 0 ? 0 : mid, b = f == 0 ? mid : w.size();
+      if (b - a < 50) continue;
+      RunData& h = p.half_data[2 * j + static_cast<std::size_t>(f)];
+      auto cut = [&](const std::vector<double>& x) {
+        return std::vector<double>(x.begin() + static_cast<std::ptrdiff_t>(a),
+                                   x.begin() + static_cast<std::ptrdiff_t>(b));
+      };
+      h.t = cut(w.t);
+      h.r = cut(w.r);
+      h.theta = cut(w.theta);
+      h.v = cut(w.v);
+      DiagnoseRun hr = src;
+      hr.data = &h;
+      if (f == 1) {  // history: the commands before the second half
+        std::vector<double> hist = src.command_history;
+        hist.insert(hist.end(), w.v.begin(), w.v.begin() + static_cast<std::ptrdiff_t>(mid));
+        if (hist.size() > 300) hist.erase(hist.begin(), hist.end() - 300);
+        hr.command_history = std::move(hist);
+      }
+      p.folds[static_cast<std::size_t>(f)].push_back(runs.size());
+      runs.push_back(std::move(hr));
+    }
+  }
+}
+
+}  // namespace
+
+PreparedRuns prepare_runs(const std::vector<DiagnoseRun>& runs_in, const DiagnoseOptions& opt) {
+  PreparedRuns p;
+  // The coefficient factors: one per α-model breakpoint and β̃ end, or 1 and 1.
+  if (runs_in.front().model.use_alpha) {
+    p.unit_scales.c.assign(runs_in.front().model.alpha.n_breakpoints, 1.0);
+    p.unit_scales.beta.assign(2, 1.0);
+  }
+  p.fit_runs = choose_fit_runs(runs_in, opt.max_fit_runs);
+  // The fit runs cut to their last fit_window_s (the other runs are not used for fitting).
+  p.runs = runs_in;
+  cut_fit_windows(runs_in, opt.fit_window_s, p);
+  p.all.resize(runs_in.size());
+  for (std::size_t i = 0; i < p.all.size(); ++i) p.all[i] = i;
+  p.scales = data_scales(p.runs, p.fit_runs, runs_in.front().controller.kp);
+  split_folds(p);
+  p.can_cross_validate = !p.folds[0].empty() && !p.folds[1].empty();
+  return p;
+}
+
+RoundModel initial_model(const std::vector<DiagnoseRun>& runs_in, const PreparedRuns& prepared) {
+  RoundModel m;
+  // All runs share the effects of the first run's model as the starting point.
+  m.effects = runs_in.front().model.effects;
+  m.scales = prepared.unit_scales;
+  // The Coulomb term's smoothing: 1 % of the RMS velocity (a sharp switch on the data's scale).
+  if (!(m.effects.coulomb_v > 0.0))
+    m.effects.coulomb_smoothing_rad_s = 0.01 * prepared.scales.theta_dot_rms;
+  for (EffectKind k : kAllEffectKinds) {
+    if (effect_active(m.effects, k)) m.named.push_back(k);
+  }
+  return m;
+}
+
 ResidualLocation locate(const std::vector<DiagnoseRun>& runs,
                         const std::vector<std::vector<double>>& sims) {
   ResidualLocation loc;
@@ -620,51 +749,462 @@ ResidualLocation locate(const std::vector<DiagnoseRun>& runs,
     hi /= static_cast<double>(sine_rel.size() - h);
     loc.low_vs_high_frequency = hi > 0 ? lo / hi : kNaN;
   }
-  // Words.
-  auto say = [&](double c, const std::string& where) {
-    if (std::isfinite(c) && c >= 1.5)
-      loc.findings.push_back("errors concentrate " + where + ": " + num(c, "%.1f") +
-                             "× their share of the samples");
-  };
-  say(loc.reversal_concentration, "at velocity reversals (|θ̇| below 10 % of its largest value)");
-  say(loc.jump_concentration, "in the 0.15 s after reference jumps (timing, transients)");
-  say(loc.high_command_concentration, "where |v| is largest (top 10 % of each run)");
-  say(loc.low_command_concentration, "where |v| is smallest (bottom 10 % of each run)");
-  say(loc.high_alpha_concentration, "where α is largest (top 10 % of each run)");
-  if (std::isfinite(loc.low_vs_high_frequency)) {
-    if (loc.low_vs_high_frequency >= 1.5) {
-      loc.findings.push_back("errors concentrate in the low-frequency sine runs: their RMS error "
-                             "relative to the amplitude is " + num(loc.low_vs_high_frequency, "%.1f") +
-                             "× that of the high-frequency ones");
-    } else if (loc.low_vs_high_frequency <= 1.0 / 1.5) {
-      loc.findings.push_back("errors concentrate in the high-frequency sine runs: their RMS error "
-                             "relative to the amplitude is " + num(1.0 / loc.low_vs_high_frequency, "%.1f") +
-                             "× that of the low-frequency ones");
-    }
-  }
-  // The worst runs.
-  std::vector<std::size_t> order;
-  for (std::size_t i = 0; i < runs.size(); ++i) {
-    if (std::isfinite(loc.run_rms[i])) order.push_back(i);
-  }
-  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return loc.run_rms[a] > loc.run_rms[b]; });
-  if (order.size() >= 2) {
-    std::string s = "largest errors in runs ";
-    for (std::size_t k = 0; k < std::min<std::size_t>(3, order.size()); ++k) {
-      s += (k ? ", " : "") + runs[order[k]].name + " (RMS " + num(loc.run_rms[order[k]]) + ")";
-    }
-    s += "; overall RMS " + num(loc.rms);
-    loc.findings.push_back(s);
-  }
-  if (loc.findings.size() <= 1) {
-    loc.findings.insert(loc.findings.begin(),
-                        "the residual is spread over the state: no concentration of 1.5× or more "
-                        "at reversals, jumps, large or small |v| or α");
-  }
+  describe_location(runs, loc);
   return loc;
 }
 
+RoundStart start_round(const std::vector<DiagnoseRun>& runs_in, const PreparedRuns& prepared,
+                       const RoundModel& model, const Reidentifier& reid,
+                       const DiagnoseOptions& opt) {
+  const std::vector<DiagnoseRun>& runs = prepared.runs;
+  const std::vector<std::size_t>& fit_runs = prepared.fit_runs;
+  RoundStart s;
+  {
+    const auto rr = run_rms_with(runs_in, prepared.all, model.effects, model.scales, opt, model.alpha);
+    s.error_before = pooled_rms(runs_in, rr, prepared.all);
+  }
+  // The current model's simulations along the fit runs, for the equation-error starts.
+  std::vector<SimulationResult> fit_sims(runs.size());
+  parallel_for(fit_runs.size(), opt.threads, [&](std::size_t j) {
+    const std::size_t i = fit_runs[j];
+    fit_sims[i] = simulate_run(runs[i], diagnosed_model(runs[i].model, model.effects, model.scales, model.alpha),
+                               opt.simulation);
+  });
+  s.torque_residual = torque_residual(runs, fit_runs, fit_sims, model.effects);
+  if (reid.usable()) {
+    s.none_alpha = best_variant(reid, model.effects, runs, fit_runs, prepared.unit_scales, opt, true,
+                                model.alpha ? model.alpha : std::optional<AlphaModel>(runs_in.front().model.alpha),
+                                &s.none_unit_rms);
+  }
+  return s;
+}
+
+CandidateSearch search_candidate(EffectKind kind, const PreparedRuns& prepared,
+                                 const RoundModel& model, const RoundStart& start,
+                                 const Reidentifier& reid, const DiagnoseOptions& opt) {
+  const std::vector<DiagnoseRun>& runs = prepared.runs;
+  const std::vector<std::size_t>& fit_runs = prepared.fit_runs;
+  const DataScales& sc = prepared.scales;
+  CandidateSearch out;
+  // Starts of the new effect.
+  Effects e = model.effects;
+  {
+    const EffectSpec& spec = effect_spec(kind);
+    if (spec.equation_error_start != nullptr) {
+      equation_error_start(kind, start.torque_residual, sc, e);
+    } else if (kind != EffectKind::kNone && !reid.usable()) {
+      // No regression for it: its first parameter scanned over the search grid (without
+      // re-identification; with it, the search below scans).
+      std::vector<double> values;
+      for (const auto& point : spec.search_grid(sc.effect(), param_block(kind, e, sc).start))
+        values.push_back(point[0]);
+      e.*(spec.parameters[0].member) = scan_start(runs, fit_runs, e, spec.parameters[0].member,
+                                                  values, model.scales, opt, model.alpha);
+    }
+  }
+  // The new effect's parameters searched with the α-model re-identified for each value
+  // (Reidentifier); its output-error fit then starts from the best (after every search).
+  out.start_scales = model.scales;
+  out.alpha = model.alpha;
+  if (kind == EffectKind::kNone && start.none_alpha) {
+    // `none` is identified the same way as the candidates (its α-model re-identified with the
+    // current effects), so a candidate does not win by the re-identification alone.
+    out.alpha = start.none_alpha;
+    out.start_scales = prepared.unit_scales;
+  }
+  if (kind != EffectKind::kNone && reid.usable()) {
+    EffectSearch search;
+    search.runs = &runs;
+    search.fit_runs = &fit_runs;
+    search.reid = &reid;
+    search.opt = &opt;
+    search.base = model.effects;
+    search.unit = prepared.unit_scales;
+    if (search_reidentified(kind, e, sc, search)) {
+      out.searched = true;
+      out.effects = search.best;
+      out.alpha = best_variant(reid, out.effects, runs, fit_runs, prepared.unit_scales, opt, false,
+                               std::nullopt, &out.found_rms);
+      return out;
+    }
+  }
+  // Not searched: `none`, or no re-identification.
+  out.effects = e;
+  return out;
+}
+
+CandidateFitter::CandidateFitter(const std::vector<DiagnoseRun>& runs_in,
+                                 const PreparedRuns& prepared, const RoundModel& model,
+                                 const DiagnoseOptions& options)
+    : runs_in_(runs_in), prepared_(prepared), model_(model), options_(options),
+      none_training_rms_(kNaN) {}
+
+std::vector<ParamBlock> CandidateFitter::blocks_with(EffectKind kind, const Effects& e) const {
+  std::vector<ParamBlock> blocks;
+  for (EffectKind k : model_.named) blocks.push_back(param_block(k, e, prepared_.scales));
+  if (kind != EffectKind::kNone) blocks.push_back(param_block(kind, e, prepared_.scales));
+  return blocks;
+}
+
+CandidateScore CandidateFitter::fit(EffectKind kind, const Effects& e,
+                                    const ModelScales& start_scales,
+                                    const std::optional<AlphaModel>& cand_alpha, bool searched,
+                                    bool cv, PendingCrossValidation* later) const {
+  const DiagnoseOptions& opt = options_;
+  const ModelScales& ms = model_.scales;
+  CandidateScore cand;
+  cand.effect = kind;
+  const std::vector<ParamBlock> blocks = blocks_with(kind, e);
+  Effects base = model_.effects;
+  // Fit on all fit runs, then on each fold from there.
+  OutputErrorProblem pr =
+      make_problem(prepared_.runs, prepared_.fit_runs, blocks, base, start_scales, opt, cand_alpha);
+  OutputErrorOptions oo;
+  oo.threads = opt.threads;
+  oo.max_iterations = searched ? 10 : 15;  // the search has found the valley
+  // The command-path effects have cost functions with several minima (a delay against a
+  // lightly damped resonance; a limit or deadzone that is inactive at its start): extra starts
+  // (unless the search above has already looked).
+  if (!searched) {
+    const std::size_t at = pr.parameters.size() - 1;  // the new effect's (only) parameter
+    const EffectSpec& spec = effect_spec(kind);
+    const std::vector<double> extra = spec.extra_starts != nullptr
+                                          ? spec.extra_starts(prepared_.scales.effect())
+                                          : std::vector<double>{};
+    for (double x : extra) {
+      std::vector<double> p0;
+      for (const auto& par : pr.parameters) p0.push_back(par.initial);
+      p0[at] = std::clamp(x, pr.parameters[at].lower, pr.parameters[at].upper);
+      if (std::abs(p0[at] - pr.parameters[at].initial) > 1e-3 * std::abs(p0[at]))
+        oo.extra_starts.push_back(p0);
+    }
+  }
+  const OutputErrorResult full = fit_output_error(pr, oo);
+  if (!full.ok) {
+    cand.message = full.message;
+    return cand;
+  }
+  cand.ok = true;
+  cand.reidentified = searched;
+  cand.alpha = cand_alpha;
+  cand.scales = scales_of(ms, full.values);
+  cand.effects = effects_of(blocks, base, ms, full.values);
+  cand.training_rms = full.rms;
+  const bool hopeless = kind != EffectKind::kNone && std::isfinite(none_training_rms_) &&
+                        !(full.rms <= (1.0 - 0.5 * opt.significance) * none_training_rms_);
+  if (hopeless) {
+    cand.score = full.rms;
+    cand.fold_scores = {full.rms, full.rms};
+    cand.message = "training RMS not below (1 − significance/2) × that of none: not cross-validated";
+    cand.cross_validated = false;
+  } else if (prepared_.can_cross_validate && cv) {
+    cross_validate(cand, blocks, full.values);
+  } else if (prepared_.can_cross_validate) {
+    cand.score = full.rms;
+    cand.fold_scores = {full.rms, full.rms};
+    cand.cross_validated = false;
+    cand.message = "not cross-validated: its training RMS is not among the two lowest";
+    if (later != nullptr) *later = {blocks, full.values};
+  } else {
+    cand.score = full.rms;
+    cand.fold_scores = {full.rms, full.rms};
+  }
+  const auto rr_all =
+      run_rms_with(runs_in_, prepared_.all, cand.effects, cand.scales, opt, cand_alpha);
+  cand.error_after = pooled_rms(runs_in_, rr_all, prepared_.all);
+  return cand;
+}
+
+void CandidateFitter::cross_validate(CandidateScore& cand, const std::vector<ParamBlock>& blocks,
+                                     const std::vector<double>& values) const {
+  const DiagnoseOptions& opt = options_;
+  const ModelScales& ms = model_.scales;
+  const std::vector<DiagnoseRun>& runs = prepared_.runs;
+  const Effects base = model_.effects;
+  double ss = 0.0, n = 0.0;
+  for (int f = 0; f < 2; ++f) {
+    OutputErrorProblem pf = make_problem(runs, prepared_.folds[static_cast<std::size_t>(f)],
+                                         blocks, base, ms, opt, cand.alpha);
+    for (std::size_t j = 0; j < pf.parameters.size(); ++j)
+      pf.parameters[j].initial = std::clamp(values[j], pf.parameters[j].lower, pf.parameters[j].upper);
+    OutputErrorOptions of;
+    of.threads = opt.threads;
+    of.max_iterations = 8;
+    const OutputErrorResult r = fit_output_error(pf, of);
+    const std::vector<double>& p = r.ok ? r.values : values;
+    const Effects ef = effects_of(blocks, base, ms, p);
+    const std::vector<std::size_t>& held = prepared_.folds[static_cast<std::size_t>(1 - f)];
+    const auto rr = run_rms_with(runs, held, ef, scales_of(ms, p), opt, cand.alpha);
+    const double fr = pooled_rms(runs, rr, held);
+    cand.fold_scores[static_cast<std::size_t>(1 - f)] = std::isfinite(fr) ? fr : kInf;
+    for (std::size_t i : held) {
+      const double m = static_cast<double>(runs[i].data->size());
+      ss += std::isfinite(rr[i]) ? rr[i] * rr[i] * m : kInf;
+      n += m;
+    }
+  }
+  cand.score = n > 0 ? std::sqrt(ss / n) : kInf;
+  cand.cross_validated = true;
+  cand.message.clear();
+}
+
+CandidateScore CandidateFitter::not_fitted(EffectKind kind, const Effects& e,
+                                           const std::optional<AlphaModel>& a, double found_rms,
+                                           const std::string& why) const {
+  CandidateScore c;
+  c.effect = kind;
+  c.ok = true;
+  c.reidentified = true;
+  c.effects = e;
+  c.scales = prepared_.unit_scales;
+  c.alpha = a;
+  c.training_rms = c.score = found_rms;
+  c.fold_scores = {found_rms, found_rms};
+  c.cross_validated = false;
+  c.message = why;
+  return c;
+}
+
+void fit_searched(const CandidateFitter& fitter, const std::vector<DeferredFit>& deferred,
+                  std::vector<CandidateScore>& candidates,
+                  std::vector<PendingCrossValidation>& pending) {
+  double best_found = kInf;
+  for (const DeferredFit& d : deferred) best_found = std::min(best_found, d.found_rms);
+  for (const DeferredFit& d : deferred) {
+    const EffectKind kind = candidates[d.index].effect;
+    if (d.found_rms > kSearchPruneRatio * best_found) {
+      candidates[d.index] = fitter.not_fitted(kind, d.effects, d.alpha, d.found_rms,
+                                              "search RMS more than " + num(kSearchPruneRatio, "%g") +
+                                                  "× the best candidate's: not fitted further");
+      continue;
+    }
+    candidates[d.index] = fitter.fit(kind, d.effects, fitter.prepared().unit_scales, d.alpha, true,
+                                     false, &pending[d.index]);
+  }
+}
+
+void cross_validate_lowest(const CandidateFitter& fitter, std::vector<CandidateScore>& candidates,
+                           const std::vector<PendingCrossValidation>& pending) {
+  std::vector<std::size_t> order;
+  for (std::size_t k = 0; k < candidates.size(); ++k) {
+    if (!pending[k].values.empty()) order.push_back(k);
+  }
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return candidates[a].training_rms < candidates[b].training_rms;
+  });
+  if (order.size() > 2) order.resize(2);
+  for (std::size_t k : order) fitter.cross_validate(candidates[k], pending[k].blocks, pending[k].values);
+}
+
+bool beats(const CandidateScore& c, const CandidateScore& ref, double significance) {
+  const double keep = 1.0 - significance;
+  return c.score <= keep * ref.score && c.fold_scores[0] <= keep * ref.fold_scores[0] &&
+         c.fold_scores[1] <= keep * ref.fold_scores[1];
+}
+
+bool delay_below_one_tick(const CandidateScore& c, const SimulationOptions& simulation) {
+  return c.effect == EffectKind::kTimeDelay && simulation.loop_period_s > 0.0 &&
+         c.effects.delay_s < simulation.loop_period_s;
+}
+
+namespace {
+
+/// The first `n_breakpoints` of an α-model: its breakpoints.
+std::vector<double> breakpoints_of(const AlphaModel& a) {
+  return std::vector<double>(a.alpha.begin(),
+                             a.alpha.begin() + static_cast<std::ptrdiff_t>(a.n_breakpoints));
+}
+
+/// Parsimony: among candidates within 5 % of the best score (candidates[best]), the one with
+/// fewest parameters (an offset torque is also a gravity term with θ0 = −π/2 over a small range
+/// of θ). A simpler cross-validated candidate is first refitted at the best one's breakpoints,
+/// so that it is not beaten by a luckier breakpoint set alone; when the refitted one is chosen
+/// it replaces its entry. Returns the index of the chosen candidate.
+std::size_t parsimonious(const CandidateFitter& fitter, const Reidentifier& reid,
+                         std::vector<CandidateScore>& candidates, std::size_t best_index) {
+  const CandidateScore& best = candidates[best_index];
+  std::size_t chosen = best_index;
+  std::optional<CandidateScore> chosen_refit;  // the chosen one refitted, when it was
+  for (std::size_t k = 0; k < candidates.size(); ++k) {
+    const CandidateScore& c = candidates[k];
+    if (!c.ok || !c.cross_validated || c.effect == EffectKind::kNone) continue;
+    if (effect_parameters(c.effect).size() >= effect_parameters(best.effect).size()) continue;
+    std::optional<CandidateScore> refit;
+    if (best.alpha && c.alpha && reid.usable() && c.alpha->alpha != best.alpha->alpha) {
+      const std::optional<AlphaModel> a = reid.fit_at(c.effects, breakpoints_of(*best.alpha));
+      if (a) {
+        CandidateScore r = fitter.fit(c.effect, c.effects, fitter.prepared().unit_scales, a, true,
+                                      true, nullptr);
+        if (r.ok && r.score < c.score) refit = std::move(r);
+      }
+    }
+    const CandidateScore& simpler = refit ? *refit : c;
+    const CandidateScore& so_far = chosen_refit ? *chosen_refit : candidates[chosen];
+    if (simpler.score <= 1.05 * best.score &&
+        (chosen == best_index ||
+         effect_parameters(simpler.effect).size() < effect_parameters(so_far.effect).size())) {
+      chosen = k;
+      chosen_refit = std::move(refit);
+    }
+  }
+  if (!chosen_refit) return chosen;
+  // The table shows the simpler candidate as refitted.
+  for (std::size_t k = 0; k < candidates.size(); ++k) {
+    if (candidates[k].effect == chosen_refit->effect) {
+      candidates[k] = *chosen_refit;
+      candidates[k].message = "refitted at the breakpoints of the candidate it was preferred to";
+      return k;
+    }
+  }
+  return chosen;  // not reached: the refitted one came from the candidates
+}
+
 }  // namespace
+
+Choice choose_winner(const CandidateFitter& fitter, const Reidentifier& reid, DiagnoseRound& rd) {
+  const DiagnoseOptions& opt = fitter.options();
+  Choice choice;
+  // The winner: lowest score; named only if significantly better than `none` in both folds.
+  std::optional<std::size_t> none, best;
+  for (std::size_t k = 0; k < rd.candidates.size(); ++k) {
+    const CandidateScore& c = rd.candidates[k];
+    if (!c.ok) continue;
+    if (c.effect == EffectKind::kNone) none = k;
+    if (!c.cross_validated) continue;  // pruned: cannot be significantly better
+    if (!best || c.score < rd.candidates[*best].score) best = k;
+  }
+  if (!none) return choice;
+  choice.none_fitted = true;
+  if (!best) return choice;
+  choice.winner = parsimonious(fitter, reid, rd.candidates, *best);
+  const CandidateScore& winner = rd.candidates[*choice.winner];
+  bool named = winner.effect != EffectKind::kNone;
+  // A delay shorter than one controller tick is below what the digital loop resolves: its
+  // sample-and-hold and the α filter's timing already differ from the plant's by as much.
+  if (named && delay_below_one_tick(winner, opt.simulation)) named = false;
+  if (named) named = beats(winner, rd.candidates[*none], opt.significance);
+  if (named && winner.alpha && reid.usable()) {
+    // The winner's α-model has breakpoints of its own. Breakpoint sets that fit the sine points
+    // equally well can predict the other runs quite differently, so the winner must also beat
+    // `none` with the α-model at ITS breakpoints (coefficients with the current effects):
+    // otherwise the gain is the breakpoints', not the effect's.
+    const Effects& current = fitter.model().effects;
+    const std::optional<AlphaModel> twin_alpha = reid.fit_at(current, breakpoints_of(*winner.alpha));
+    if (twin_alpha) {
+      CandidateScore twin = fitter.fit(EffectKind::kNone, current, fitter.prepared().unit_scales,
+                                       twin_alpha, false, true, nullptr);
+      if (twin.ok) {
+        named = beats(winner, twin, opt.significance);
+        rd.none_at_winner_breakpoints = twin;
+      }
+    }
+  }
+  choice.named = named;
+  return choice;
+}
+
+CandidateScore settle_winner(const CandidateFitter& fitter, const CandidateScore& winner) {
+  const DiagnoseOptions& opt = fitter.options();
+  CandidateScore settled = winner;
+  if (!(opt.fit_window_s > 0.0)) return settled;
+  // Settled on the whole fit runs: the candidates were fitted on their last fit_window_s, but
+  // the error over all runs also counts the runs' starts (transients from rest).
+  const std::vector<DiagnoseRun>& runs_in = fitter.runs_in();
+  const std::vector<std::size_t>& all = fitter.prepared().all;
+  const Effects& current = fitter.model().effects;
+  const std::vector<ParamBlock> blocks = fitter.blocks_with(winner.effect, winner.effects);
+  const OutputErrorProblem pr = make_problem(runs_in, fitter.prepared().fit_runs, blocks, current,
+                                             winner.scales, opt, winner.alpha);
+  OutputErrorOptions oo;
+  oo.threads = opt.threads;
+  oo.max_iterations = 4;
+  const OutputErrorResult r = fit_output_error(pr, oo);
+  if (r.ok) {
+    const Effects e = effects_of(blocks, current, winner.scales, r.values);
+    const ModelScales s = scales_of(winner.scales, r.values);
+    const double after =
+        pooled_rms(runs_in, run_rms_with(runs_in, all, e, s, opt, winner.alpha), all);
+    if (std::isfinite(after) && after < winner.error_after) {
+      settled.effects = e;
+      settled.scales = s;
+      settled.error_after = after;
+      settled.message = "settled on the whole fit runs (RMS over all runs " +
+                        num(winner.error_after, "%.4g") + " from the windows' fit)";
+    }
+  }
+  return settled;
+}
+
+bool improves_all_runs(const CandidateScore& settled, double error_before, double significance) {
+  // ... and the whole runs agree: the error over all samples of all runs drops too.
+  return settled.error_after <= (1.0 - 0.5 * significance) * error_before;
+}
+
+DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const PreparedRuns& prepared,
+                             const RoundModel& model, const Reidentifier& reid,
+                             const std::vector<EffectKind>& catalogue, const DiagnoseOptions& opt,
+                             CandidateScore* settled, std::string* failure) {
+  DiagnoseRound rd;
+  const RoundStart start = start_round(runs_in, prepared, model, reid, opt);
+  rd.error_before = start.error_before;
+  CandidateFitter fitter(runs_in, prepared, model, opt);
+  // Candidates fitted but not yet cross-validated, by catalogue position.
+  std::vector<PendingCrossValidation> pending(catalogue.size());
+  std::vector<DeferredFit> deferred;  // searched candidates waiting for their output-error fit
+  for (EffectKind kind : catalogue) {
+    CandidateScore cand;
+    cand.effect = kind;
+    if (std::find(model.named.begin(), model.named.end(), kind) != model.named.end()) {
+      cand.message = "already in the model";
+      rd.candidates.push_back(cand);
+      continue;
+    }
+    const CandidateSearch s = search_candidate(kind, prepared, model, start, reid, opt);
+    if (s.searched) {
+      // Not even (1 − significance/2) of `none`'s error on the fit runs with both at unit
+      // factors: it cannot be named, so it is not fitted further (saves its output error).
+      if (std::isfinite(start.none_unit_rms) &&
+          !(s.found_rms <= (1.0 - 0.5 * opt.significance) * start.none_unit_rms)) {
+        rd.candidates.push_back(fitter.not_fitted(kind, s.effects, s.alpha, s.found_rms,
+                                                  "search RMS not below (1 − significance/2) × "
+                                                  "that of none: not fitted further"));
+        continue;
+      }
+      // Fitted once every candidate has been searched (fit_searched()).
+      deferred.push_back({rd.candidates.size(), s.effects, s.alpha, s.found_rms});
+      rd.candidates.push_back(cand);
+      continue;
+    }
+    // Not searched: `none` (cross-validated at once), or no re-identification.
+    CandidateScore fitted = fitter.fit(kind, s.effects, s.start_scales, s.alpha, false,
+                                       kind == EffectKind::kNone, &pending[rd.candidates.size()]);
+    if (kind == EffectKind::kNone && fitted.ok) fitter.set_none_training_rms(fitted.training_rms);
+    rd.candidates.push_back(fitted);
+  }
+  fit_searched(fitter, deferred, rd.candidates, pending);
+  cross_validate_lowest(fitter, rd.candidates, pending);
+  const Choice choice = choose_winner(fitter, reid, rd);
+  if (!choice.none_fitted) {
+    *failure = "the model without a new effect could not be fitted: " +
+               (rd.candidates.empty() ? std::string() : rd.candidates.front().message);
+    return rd;
+  }
+  CandidateScore s;
+  if (choice.named) s = settle_winner(fitter, rd.candidates[*choice.winner]);
+  if (!choice.named || !improves_all_runs(s, rd.error_before, opt.significance)) {
+    rd.error_after = rd.error_before;  // `none`: the model stays as it was
+    return rd;
+  }
+  rd.named = s.effect;
+  for (auto& c : rd.candidates) {
+    if (c.effect == s.effect) c = s;
+  }
+  rd.error_after = s.error_after;
+  *settled = std::move(s);
+  return rd;
+}
+
+}  // namespace diagnose_detail
 
 JointModelAtPose diagnosed_model(const JointModelAtPose& base, const Effects& e,
                                  const ModelScales& scales, const std::optional<AlphaModel>& alpha) {
@@ -699,6 +1239,7 @@ std::vector<std::vector<double>> simulate_diagnosed(const std::vector<DiagnoseRu
 }
 
 DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseOptions& opt) {
+  using namespace diagnose_detail;
   const auto t_start = std::chrono::steady_clock::now();
   DiagnoseResult res;
   if (runs_in.empty()) {
@@ -717,504 +1258,48 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
   catalogue.erase(std::remove(catalogue.begin(), catalogue.end(), EffectKind::kNone), catalogue.end());
   catalogue.insert(catalogue.begin(), EffectKind::kNone);
 
-  // All runs share the effects of the first run's model as the starting point.
-  Effects current = runs_in.front().model.effects;
-  ModelScales ms;  // the coefficient factors: one per α-model breakpoint and β̃ end, or 1 and 1
-  if (runs_in.front().model.use_alpha) {
-    ms.c.assign(runs_in.front().model.alpha.n_breakpoints, 1.0);
-    ms.beta.assign(2, 1.0);
-  }
-  const std::vector<std::size_t> fit_runs = choose_fit_runs(runs_in, opt.max_fit_runs);
-  res.fit_runs = fit_runs;
-  // The fit runs cut to their last fit_window_s (the other runs are not used for fitting).
-  std::vector<RunData> windows(fit_runs.size());
-  std::vector<DiagnoseRun> runs = runs_in;
-  for (std::size_t j = 0; j < fit_runs.size(); ++j) {
-    const RunData& d = *runs_in[fit_runs[j]].data;
-    std::size_t k0 = 0;
-    if (opt.fit_window_s > 0.0) {
-      while (k0 + 50 < d.size() && d.t.back() - d.t[k0] > opt.fit_window_s) ++k0;
-    }
-    RunData& w = windows[j];
-    // The α filter and the delay line start as the run left them: 0.3 s of commands before.
-    const std::size_t h0 = k0 > 300 ? k0 - 300 : 0;
-    runs[fit_runs[j]].command_history.assign(d.v.begin() + static_cast<std::ptrdiff_t>(h0),
-                                             d.v.begin() + static_cast<std::ptrdiff_t>(k0));
-    w.t.assign(d.t.begin() + static_cast<std::ptrdiff_t>(k0), d.t.end());
-    w.r.assign(d.r.begin() + static_cast<std::ptrdiff_t>(k0), d.r.end());
-    w.theta.assign(d.theta.begin() + static_cast<std::ptrdiff_t>(k0), d.theta.end());
-    w.v.assign(d.v.begin() + static_cast<std::ptrdiff_t>(k0), d.v.end());
-    runs[fit_runs[j]].data = &w;
-  }
-  std::vector<std::size_t> all(runs.size());
-  for (std::size_t i = 0; i < all.size(); ++i) all[i] = i;
-
-  DataScales sc;
-  {
-    double vd2 = 0, n = 0;
-    sc.theta_min = kInf;
-    sc.theta_max = -kInf;
-    for (std::size_t i : fit_runs) {
-      const RunData& d = *runs[i].data;
-      std::vector<double> dth, ddth;
-      local_quadratic_derivatives(d.t, d.theta, 0.01, dth, ddth);
-      for (std::size_t k = 0; k < d.size(); ++k) {
-        sc.v_max = std::max(sc.v_max == 1.0 && k == 0 && i == fit_runs.front() ? 0.0 : sc.v_max,
-                            std::abs(d.v[k]));
-        vd2 += dth[k] * dth[k];
-        n += 1;
-        sc.theta_min = std::min(sc.theta_min, d.theta[k]);
-        sc.theta_max = std::max(sc.theta_max, d.theta[k]);
-      }
-    }
-    if (!(sc.v_max > 0)) sc.v_max = 1.0;
-    sc.theta_dot_rms = n > 0 ? std::sqrt(vd2 / n) : 1.0;
-    if (!(sc.theta_dot_rms > 0)) sc.theta_dot_rms = 1.0;
-    sc.kp = runs_in.front().controller.kp;
-  }
-  // The Coulomb term's smoothing: 1 % of the RMS velocity (a sharp switch on the data's scale).
-  if (!(current.coulomb_v > 0.0)) current.coulomb_smoothing_rad_s = 0.01 * sc.theta_dot_rms;
-
-  // Folds: the first and the second half (in time) of every fit window, each started from the
-  // measured state with its command history. Both folds see every run, so the model's
-  // coefficient factors stay determined; fitting one half and predicting the other tests the
-  // effect on data it was not fitted on.
-  std::vector<RunData> halves(2 * fit_runs.size());
-  std::vector<std::size_t> fold[2];
-  for (std::size_t j = 0; j < fit_runs.size(); ++j) {
-    const DiagnoseRun src = runs[fit_runs[j]];  // a copy: runs grows below
-    const RunData& w = *src.data;
-    const std::size_t mid = w.size() / 2;
-    for (int f = 0; f < 2; ++f) {
-      const std::size_t a = f == 0 ? 0 : mid, b = f == 0 ? mid : w.size();
-      if (b - a < 50) continue;
-      RunData& h = halves[2 * j + static_cast<std::size_t>(f)];
-      auto cut = [&](const std::vector<double>& x) {
-        return std::vector<double>(x.begin() + static_cast<std::ptrdiff_t>(a),
-                                   x.begin() + static_cast<std::ptrdiff_t>(b));
-      };
-      h.t = cut(w.t);
-      h.r = cut(w.r);
-      h.theta = cut(w.theta);
-      h.v = cut(w.v);
-      DiagnoseRun hr = src;
-      hr.data = &h;
-      if (f == 1) {  // history: the commands before the second half
-        std::vector<double> hist = src.command_history;
-        hist.insert(hist.end(), w.v.begin(), w.v.begin() + static_cast<std::ptrdiff_t>(mid));
-        if (hist.size() > 300) hist.erase(hist.begin(), hist.end() - 300);
-        hr.command_history = std::move(hist);
-      }
-      fold[f].push_back(runs.size());
-      runs.push_back(std::move(hr));
-    }
-  }
-  const bool can_cv = !fold[0].empty() && !fold[1].empty();
-
-  const std::vector<std::vector<double>> sims0 = simulate_diagnosed(runs_in, current, ms, opt.simulation, opt.threads);
+  const PreparedRuns prepared = prepare_runs(runs_in, opt);
+  res.fit_runs = prepared.fit_runs;
+  RoundModel model = initial_model(runs_in, prepared);
+  const std::vector<std::vector<double>> sims0 =
+      simulate_diagnosed(runs_in, model.effects, model.scales, opt.simulation, opt.threads);
   res.before = locate(runs_in, sims0);
   res.error_before = res.before.rms;
-  std::vector<EffectKind> named_kinds;  // active kinds fitted each round
-  for (EffectKind k : kAllEffectKinds) {
-    if (effect_active(current, k)) named_kinds.push_back(k);
-  }
 
   const std::vector<DiagnoseRun> no_runs;
   // (runs_in must outlive reid: it keeps pointers to the sine runs)
-  Reidentifier reid(opt.reidentify ? runs_in : no_runs, opt.simulation.loop_period_s);
-  const ModelScales unit_scales = ms;
-  std::optional<AlphaModel> alpha;  // the re-identified α-model in use (nullopt: the runs' own)
+  const Reidentifier reid(opt.reidentify ? runs_in : no_runs, opt.simulation.loop_period_s);
   for (std::size_t round = 0; round < opt.max_effects; ++round) {
-    DiagnoseRound rd;
-    {
-      const auto rr = run_rms_with(runs_in, all, current, ms, opt, alpha);
-      rd.error_before = pooled_rms(runs_in, rr, all);
-    }
-    // The current model's simulations along the fit runs, for the equation-error starts.
-    std::vector<SimulationResult> fit_sims(runs.size());
-    parallel_for(fit_runs.size(), opt.threads, [&](std::size_t j) {
-      const std::size_t i = fit_runs[j];
-      fit_sims[i] = simulate_run(runs[i], diagnosed_model(runs[i].model, current, ms, alpha), opt.simulation);
-    });
-    const TorqueResidual tr = torque_residual(runs, fit_runs, fit_sims, current);
-    double none_train_rms = kNaN;
-    // Candidates fitted but not yet cross-validated: blocks and values, by catalogue position.
-    std::vector<std::pair<std::vector<ParamBlock>, std::vector<double>>> pending(catalogue.size());
-    double none_unit_rms = kNaN;  // `none`'s RMS over the fit runs with its α-model, unit factors
-    const std::optional<AlphaModel> none_alpha =
-        reid.usable() ? best_variant(reid, current, runs, fit_runs, unit_scales, opt, true,
-                                     alpha ? alpha : std::optional<AlphaModel>(runs_in.front().model.alpha),
-                                     &none_unit_rms)
-                      : std::nullopt;
-
-    // 2-fold cross-validation of a candidate fitted on all fit runs (`values`, `blocks`).
-    auto cross_validate = [&](CandidateScore& cand, const std::vector<ParamBlock>& blocks,
-                              const std::vector<double>& values) {
-      const Effects base = current;
-      double ss = 0.0, n = 0.0;
-      for (int f = 0; f < 2; ++f) {
-        OutputErrorProblem pf = make_problem(runs, fold[f], blocks, base, ms, opt, cand.alpha);
-        for (std::size_t j = 0; j < pf.parameters.size(); ++j)
-          pf.parameters[j].initial = std::clamp(values[j], pf.parameters[j].lower, pf.parameters[j].upper);
-        OutputErrorOptions of;
-        of.threads = opt.threads;
-        of.max_iterations = 8;
-        const OutputErrorResult r = fit_output_error(pf, of);
-        const std::vector<double>& p = r.ok ? r.values : values;
-        const Effects ef = effects_of(blocks, base, ms, p);
-        const std::vector<std::size_t>& held = fold[1 - f];
-        const auto rr = run_rms_with(runs, held, ef, scales_of(ms, p), opt, cand.alpha);
-        const double fr = pooled_rms(runs, rr, held);
-        cand.fold_scores[static_cast<std::size_t>(1 - f)] = std::isfinite(fr) ? fr : kInf;
-        for (std::size_t i : held) {
-          const double m = static_cast<double>(runs[i].data->size());
-          ss += std::isfinite(rr[i]) ? rr[i] * rr[i] * m : kInf;
-          n += m;
-        }
-      }
-      cand.score = n > 0 ? std::sqrt(ss / n) : kInf;
-      cand.cross_validated = true;
-      cand.message.clear();
-    };
-    // The output-error parameter blocks of the effects already named and of a new `kind`
-    // (none: no new block), with starts from `e`.
-    auto blocks_with = [&](EffectKind kind, const Effects& e) {
-      std::vector<ParamBlock> blocks;
-      for (EffectKind k : named_kinds) blocks.push_back(param_block(k, e, sc));
-      if (kind != EffectKind::kNone) blocks.push_back(param_block(kind, e, sc));
-      return blocks;
-    };
-    // A candidate fitted on all fit runs; cross-validated now when `cv` (else its blocks and
-    // values are left in *later for cross_validate()).
-    auto fit_candidate = [&](EffectKind kind, const Effects& e, const ModelScales& start_scales,
-                             const std::optional<AlphaModel>& cand_alpha, bool searched, bool cv,
-                             std::pair<std::vector<ParamBlock>, std::vector<double>>* later) {
-      CandidateScore cand;
-      cand.effect = kind;
-      const std::vector<ParamBlock> blocks = blocks_with(kind, e);
-      Effects base = current;
-      // Fit on all fit runs, then on each fold from there.
-      OutputErrorProblem pr = make_problem(runs, fit_runs, blocks, base, start_scales, opt, cand_alpha);
-      OutputErrorOptions oo;
-      oo.threads = opt.threads;
-      oo.max_iterations = searched ? 10 : 15;  // the search has found the valley
-      // The command-path effects have cost functions with several minima (a delay against a
-      // lightly damped resonance; a limit or deadzone that is inactive at its start): extra starts
-      // (unless the search above has already looked).
-      if (!searched) {
-        const std::size_t at = pr.parameters.size() - 1;  // the new effect's (only) parameter
-        const EffectSpec& spec = effect_spec(kind);
-        const std::vector<double> extra =
-            spec.extra_starts != nullptr ? spec.extra_starts(sc.effect()) : std::vector<double>{};
-        for (double x : extra) {
-          std::vector<double> p0;
-          for (const auto& par : pr.parameters) p0.push_back(par.initial);
-          p0[at] = std::clamp(x, pr.parameters[at].lower, pr.parameters[at].upper);
-          if (std::abs(p0[at] - pr.parameters[at].initial) > 1e-3 * std::abs(p0[at]))
-            oo.extra_starts.push_back(p0);
-        }
-      }
-      const OutputErrorResult full = fit_output_error(pr, oo);
-      if (!full.ok) {
-        cand.message = full.message;
-        return cand;
-      }
-      cand.ok = true;
-      cand.reidentified = searched;
-      cand.alpha = cand_alpha;
-      cand.scales = scales_of(ms, full.values);
-      cand.effects = effects_of(blocks, base, ms, full.values);
-      cand.training_rms = full.rms;
-      const bool hopeless = kind != EffectKind::kNone && std::isfinite(none_train_rms) &&
-                            !(full.rms <= (1.0 - 0.5 * opt.significance) * none_train_rms);
-      if (hopeless) {
-        cand.score = full.rms;
-        cand.fold_scores = {full.rms, full.rms};
-        cand.message = "training RMS not below (1 − significance/2) × that of none: not cross-validated";
-        cand.cross_validated = false;
-      } else if (can_cv && cv) {
-        cross_validate(cand, blocks, full.values);
-      } else if (can_cv) {
-        cand.score = full.rms;
-        cand.fold_scores = {full.rms, full.rms};
-        cand.cross_validated = false;
-        cand.message = "not cross-validated: its training RMS is not among the two lowest";
-        if (later != nullptr) *later = {blocks, full.values};
-      } else {
-        cand.score = full.rms;
-        cand.fold_scores = {full.rms, full.rms};
-      }
-      const auto rr_all = run_rms_with(runs_in, all, cand.effects, cand.scales, opt, cand_alpha);
-      cand.error_after = pooled_rms(runs_in, rr_all, all);
-      return cand;
-    };
-    // A candidate not fitted further: its search result, scored by its search RMS.
-    auto not_fitted = [&](EffectKind kind, const Effects& e, const std::optional<AlphaModel>& a,
-                          double found_rms, const std::string& why) {
-      CandidateScore c;
-      c.effect = kind;
-      c.ok = true;
-      c.reidentified = true;
-      c.effects = e;
-      c.scales = unit_scales;
-      c.alpha = a;
-      c.training_rms = c.score = found_rms;
-      c.fold_scores = {found_rms, found_rms};
-      c.cross_validated = false;
-      c.message = why;
-      return c;
-    };
-    // Searched candidates waiting for their output-error fit.
-    struct DeferredFit {
-      std::size_t index;  ///< in rd.candidates
-      Effects effects;
-      std::optional<AlphaModel> alpha;
-      double found_rms;
-    };
-    std::vector<DeferredFit> deferred;
-    for (EffectKind kind : catalogue) {
-      CandidateScore cand;
-      cand.effect = kind;
-      const bool already = std::find(named_kinds.begin(), named_kinds.end(), kind) != named_kinds.end();
-      if (already) {
-        cand.message = "already in the model";
-        rd.candidates.push_back(cand);
-        continue;
-      }
-      // Starts of the new effect.
-      Effects e = current;
-      {
-        const EffectSpec& spec = effect_spec(kind);
-        if (spec.equation_error_start != nullptr) {
-          equation_error_start(kind, tr, sc, e);
-        } else if (kind != EffectKind::kNone && !reid.usable()) {
-          // No regression for it: its first parameter scanned over the search grid (without
-          // re-identification; with it, the search below scans).
-          std::vector<double> values;
-          for (const auto& point : spec.search_grid(sc.effect(), param_block(kind, e, sc).start))
-            values.push_back(point[0]);
-          e.*(spec.parameters[0].member) =
-              scan_start(runs, fit_runs, e, spec.parameters[0].member, values, ms, opt, alpha);
-        }
-      }
-      // The new effect's parameters searched with the α-model re-identified for each value
-      // (Reidentifier); its output-error fit then starts from the best (after every search).
-      ModelScales start_scales = ms;
-      std::optional<AlphaModel> cand_alpha = alpha;
-      if (kind == EffectKind::kNone && none_alpha) {
-        // `none` is identified the same way as the candidates (its α-model re-identified with the
-        // current effects), so a candidate does not win by the re-identification alone.
-        cand_alpha = none_alpha;
-        start_scales = unit_scales;
-      }
-      if (kind != EffectKind::kNone && reid.usable()) {
-        EffectSearch search;
-        search.runs = &runs;
-        search.fit_runs = &fit_runs;
-        search.reid = &reid;
-        search.opt = &opt;
-        search.base = current;
-        search.unit = unit_scales;
-        if (search_reidentified(kind, e, sc, search)) {
-          e = search.best;
-          double found_rms = kNaN;
-          cand_alpha = best_variant(reid, e, runs, fit_runs, unit_scales, opt, false, std::nullopt,
-                                    &found_rms);
-          // Not even (1 − significance/2) of `none`'s error on the fit runs with both at unit
-          // factors: it cannot be named, so it is not fitted further (saves its output error).
-          if (std::isfinite(none_unit_rms) &&
-              !(found_rms <= (1.0 - 0.5 * opt.significance) * none_unit_rms)) {
-            rd.candidates.push_back(not_fitted(kind, e, cand_alpha, found_rms,
-                                               "search RMS not below (1 − significance/2) × that "
-                                               "of none: not fitted further"));
-            continue;
-          }
-          // Fitted once every candidate has been searched (see below).
-          deferred.push_back({rd.candidates.size(), e, cand_alpha, found_rms});
-          rd.candidates.push_back(cand);
-          continue;
-        }
-      }
-      // Not searched: `none`, or no re-identification.
-      CandidateScore fitted = fit_candidate(kind, e, start_scales, cand_alpha, false,
-                                            kind == EffectKind::kNone, &pending[rd.candidates.size()]);
-      if (kind == EffectKind::kNone && fitted.ok) none_train_rms = fitted.training_rms;
-      rd.candidates.push_back(fitted);
-    }
-    // The searched candidates are fitted by output error unless their search RMS is more than
-    // kSearchPruneRatio times the best candidate's: the factors fitted with them narrow the
-    // differences, but not by that much (measured: 2.9× and 3.2× behind after the search were
-    // still 1.3× and 1.4× behind after the fit; only candidates within 1.7× overtook).
-    double best_found = kInf;
-    for (const DeferredFit& d : deferred) best_found = std::min(best_found, d.found_rms);
-    for (const DeferredFit& d : deferred) {
-      const EffectKind kind = rd.candidates[d.index].effect;
-      if (d.found_rms > kSearchPruneRatio * best_found) {
-        rd.candidates[d.index] = not_fitted(kind, d.effects, d.alpha, d.found_rms,
-                                            "search RMS more than " + num(kSearchPruneRatio, "%g") +
-                                                "× the best candidate's: not fitted further");
-        continue;
-      }
-      rd.candidates[d.index] =
-          fit_candidate(kind, d.effects, unit_scales, d.alpha, true, false, &pending[d.index]);
-    }
-    // Only the candidates with the two lowest training RMS can be named (the winner must beat
-    // `none` by a margin on data it was not fitted on): those are cross-validated.
-    {
-      std::vector<std::size_t> order;
-      for (std::size_t k = 0; k < rd.candidates.size(); ++k) {
-        if (!pending[k].second.empty()) order.push_back(k);
-      }
-      std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-        return rd.candidates[a].training_rms < rd.candidates[b].training_rms;
-      });
-      if (order.size() > 2) order.resize(2);
-      for (std::size_t k : order) cross_validate(rd.candidates[k], pending[k].first, pending[k].second);
-    }
-    // The winner: lowest score; named only if significantly better than `none` in both folds.
-    const CandidateScore* none = nullptr;
-    const CandidateScore* best = nullptr;
-    for (const auto& c : rd.candidates) {
-      if (!c.ok) continue;
-      if (c.effect == EffectKind::kNone) none = &c;
-      if (!c.cross_validated) continue;  // pruned: cannot be significantly better
-      if (best == nullptr || c.score < best->score) best = &c;
-    }
-    if (none == nullptr) {
-      res.message = "the model without a new effect could not be fitted: " +
-                    (rd.candidates.empty() ? std::string() : rd.candidates.front().message);
-      res.rounds.push_back(rd);
+    CandidateScore settled;
+    std::string failure;
+    DiagnoseRound rd =
+        diagnose_round(runs_in, prepared, model, reid, catalogue, opt, &settled, &failure);
+    const EffectKind named = rd.named;
+    res.rounds.push_back(std::move(rd));
+    if (!failure.empty()) {
+      res.message = failure;
       break;
     }
-    // Parsimony: among candidates within 5 % of the best score, the one with fewest parameters
-    // (an offset torque is also a gravity term with θ0 = −π/2 over a small range of θ).
-    // A simpler cross-validated candidate is first refitted at the best one's breakpoints, so
-    // that it is not beaten by a luckier breakpoint set alone.
-    std::vector<CandidateScore> refitted;  // kept alive: `best` may point here
-    refitted.reserve(rd.candidates.size());
-    if (best != nullptr) {
-      const CandidateScore* chosen = best;
-      for (const auto& c : rd.candidates) {
-        if (!c.ok || !c.cross_validated || c.effect == EffectKind::kNone) continue;
-        if (effect_parameters(c.effect).size() >= effect_parameters(best->effect).size()) continue;
-        const CandidateScore* simpler = &c;
-        if (best->alpha && c.alpha && reid.usable() && c.alpha->alpha != best->alpha->alpha) {
-          const std::vector<double> bp(best->alpha->alpha.begin(),
-                                       best->alpha->alpha.begin() +
-                                           static_cast<std::ptrdiff_t>(best->alpha->n_breakpoints));
-          const std::optional<AlphaModel> a = reid.fit_at(c.effects, bp);
-          if (a) {
-            CandidateScore r = fit_candidate(c.effect, c.effects, unit_scales, a, true, true, nullptr);
-            if (r.ok && r.score < c.score) {
-              refitted.push_back(std::move(r));
-              simpler = &refitted.back();
-            }
-          }
-        }
-        if (simpler->score <= 1.05 * best->score &&
-            (chosen == best ||
-             effect_parameters(simpler->effect).size() < effect_parameters(chosen->effect).size())) {
-          chosen = simpler;
-        }
-      }
-      best = chosen;
-      if (!refitted.empty() && best >= refitted.data() && best < refitted.data() + refitted.size()) {
-        // The table shows the simpler candidate as refitted.
-        for (auto& c : rd.candidates) {
-          if (c.effect == best->effect) {
-            c = *best;
-            c.message = "refitted at the breakpoints of the candidate it was preferred to";
-            best = &c;
-            break;
-          }
-        }
-      }
-    }
-    const double keep = 1.0 - opt.significance;
-    auto beats = [&](const CandidateScore& c, const CandidateScore& ref) {
-      return c.score <= keep * ref.score && c.fold_scores[0] <= keep * ref.fold_scores[0] &&
-             c.fold_scores[1] <= keep * ref.fold_scores[1];
-    };
-    bool named = best != nullptr && best->effect != EffectKind::kNone;
-    // A delay shorter than one controller tick is below what the digital loop resolves: its
-    // sample-and-hold and the α filter's timing already differ from the plant's by as much.
-    if (named && best->effect == EffectKind::kTimeDelay && opt.simulation.loop_period_s > 0.0 &&
-        best->effects.delay_s < opt.simulation.loop_period_s) {
-      named = false;
-    }
-    if (named) named = beats(*best, *none);
-    if (named && best->alpha && reid.usable()) {
-      // The winner's α-model has breakpoints of its own. Breakpoint sets that fit the sine points
-      // equally well can predict the other runs quite differently, so the winner must also beat
-      // `none` with the α-model at ITS breakpoints (coefficients with the current effects):
-      // otherwise the gain is the breakpoints', not the effect's.
-      const std::vector<double> bp(best->alpha->alpha.begin(),
-                                   best->alpha->alpha.begin() +
-                                       static_cast<std::ptrdiff_t>(best->alpha->n_breakpoints));
-      const std::optional<AlphaModel> twin_alpha = reid.fit_at(current, bp);
-      if (twin_alpha) {
-        CandidateScore twin =
-            fit_candidate(EffectKind::kNone, current, unit_scales, twin_alpha, false, true, nullptr);
-        if (twin.ok) {
-          named = beats(*best, twin);
-          rd.none_at_winner_breakpoints = twin;
-        }
-      }
-    }
-    // Settled on the whole fit runs: the candidates were fitted on their last fit_window_s, but
-    // the error over all runs also counts the runs' starts (transients from rest).
-    CandidateScore settled = named ? *best : CandidateScore{};
-    if (named && opt.fit_window_s > 0.0) {
-      const std::vector<ParamBlock> blocks = blocks_with(best->effect, best->effects);
-      const OutputErrorProblem pr =
-          make_problem(runs_in, fit_runs, blocks, current, best->scales, opt, best->alpha);
-      OutputErrorOptions oo;
-      oo.threads = opt.threads;
-      oo.max_iterations = 4;
-      const OutputErrorResult r = fit_output_error(pr, oo);
-      if (r.ok) {
-        const Effects e = effects_of(blocks, current, best->scales, r.values);
-        const ModelScales s = scales_of(best->scales, r.values);
-        const double after = pooled_rms(runs_in, run_rms_with(runs_in, all, e, s, opt, best->alpha), all);
-        if (std::isfinite(after) && after < best->error_after) {
-          settled.effects = e;
-          settled.scales = s;
-          settled.error_after = after;
-          settled.message = "settled on the whole fit runs (RMS over all runs " +
-                            num(best->error_after, "%.4g") + " from the windows' fit)";
-        }
-      }
-    }
-    // ... and the whole runs agree: the error over all samples of all runs drops too.
-    if (named) named = settled.error_after <= (1.0 - 0.5 * opt.significance) * rd.error_before;
-    rd.named = named ? best->effect : EffectKind::kNone;
-    if (!named) {  // `none`: the model stays as it was
-      rd.error_after = rd.error_before;
-      res.rounds.push_back(rd);
-      break;
-    }
-    for (auto& c : rd.candidates) {
-      if (c.effect == settled.effect) c = settled;
-    }
-    current = settled.effects;
-    ms = settled.scales;
-    alpha = settled.alpha;
-    rd.error_after = settled.error_after;
-    res.rounds.push_back(rd);
-    named_kinds.push_back(rd.named);
-    res.effects_named.push_back(rd.named);
+    if (named == EffectKind::kNone) break;
+    // The named effect stays in the model (and is refitted in the next round).
+    model.effects = settled.effects;
+    model.scales = settled.scales;
+    model.alpha = settled.alpha;
+    model.named.push_back(named);
+    res.effects_named.push_back(named);
   }
-  res.effects = current;
-  res.scales = ms;
-  res.alpha = alpha;
+  res.effects = model.effects;
+  res.scales = model.scales;
+  res.alpha = model.alpha;
   const std::vector<std::vector<double>> sims1 =
-      simulate_diagnosed(runs_in, current, ms, opt.simulation, opt.threads, alpha);
+      simulate_diagnosed(runs_in, model.effects, model.scales, opt.simulation, opt.threads, model.alpha);
   res.after = locate(runs_in, sims1);
   res.error_after = res.after.rms;
   res.ok = !res.rounds.empty() && res.message.empty();
   res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   return res;
 }
+
 
 std::vector<DiagnoseRun> diagnose_runs(const Dataset& dataset, const std::vector<RunData>& data,
                                        const DatasetFit& fit) {

@@ -1,0 +1,309 @@
+#pragma once
+/// \file diagnose_stages.hpp
+/// Internal (not API): the stages of diagnose() (diagnose.hpp's file comment), each a function,
+/// so that each can be read and tested alone. One round runs
+///
+///   prepare_runs()  fit windows, data scales, the two time folds (once, before the rounds)
+///   locate()        where the residual of a model concentrates (before the rounds and after)
+///   start_round()   the round's error over all runs, torque residual and `none`'s α-model
+///   search_candidate()   a candidate's starts (equation error or scan) and its search with the
+///                        α-model re-identified at every trial (Reidentifier)
+///   CandidateFitter::fit(), fit_searched()   the output-error fits (with the prune ratio)
+///   cross_validate_lowest()   2-fold cross-validation of the two lowest training RMS
+///   choose_winner()  the winner, parsimony (the simpler refitted at the winner's breakpoints)
+///                    and the guards (a delay below one tick, beats `none` in both folds and at
+///                    the winner's breakpoints)
+///   settle_winner(), improves_all_runs()   the winner settled on the whole fit runs, then the
+///                                          error over all runs
+///
+/// in that order (diagnose_round()). Not installed; tests/diagnose/test_diagnose_stages.cpp
+/// includes it. The namespace is not alphainv::detail, whose helpers (detail::num of
+/// field_checks.hpp) would hide this file's own.
+
+#include <array>
+#include <cstddef>
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "alphainv/diagnose/diagnose.hpp"
+#include "alphainv/identify/alpha_fit.hpp"
+#include "alphainv/identify/local_linear.hpp"
+#include "alphainv/model/effects.hpp"
+
+namespace alphainv::diagnose_detail {
+
+/// Scales of the data, for starts and bounds.
+struct DataScales {
+  double v_max = 1.0;          ///< largest |v| [command unit]
+  double theta_dot_rms = 1.0;  ///< RMS of the measured θ̇ [position unit/s]
+  double theta_min = 0.0, theta_max = 0.0;  ///< measured θ range [position unit]
+  double kp = 1.0;  ///< the first run's proportional gain [command unit / position unit]
+
+  /// What the effect table's search rules are sized by (EffectSpec).
+  EffectScales effect() const { return {v_max, kp, theta_min, theta_max}; }
+};
+
+/// One effect kind's parameters as an output-error parameter block: names, starts, bounds.
+struct ParamBlock {
+  EffectKind kind;
+  std::vector<EffectParameter> params;
+  std::vector<double> start, lower, upper;
+};
+
+/// The implied torque residual n̂ = (θ̈ + C·θ̇)/β̃ − u along each fit run (inverse dynamics with the
+/// current model), with the measured θ, θ̇ at the same samples.
+struct TorqueResidual {
+  std::vector<double> n_hat, theta, theta_dot;
+};
+
+/// What prepare_runs() makes of the runs: the fit runs cut to their windows and the two folds,
+/// as runs the simulations and fits take. Not copyable: `runs` points into `window_data` and
+/// `half_data` (moving keeps the storage).
+struct PreparedRuns {
+  PreparedRuns() = default;
+  PreparedRuns(const PreparedRuns&) = delete;
+  PreparedRuns& operator=(const PreparedRuns&) = delete;
+  PreparedRuns(PreparedRuns&&) = default;
+  PreparedRuns& operator=(PreparedRuns&&) = default;
+
+  /// The runs given, the fit runs cut to their last fit_window_s (started from the measured state
+  /// there, with 0.3 s of command history), then the folds' halves appended.
+  std::vector<DiagnoseRun> runs;
+  std::vector<std::size_t> fit_runs;  ///< indices of the fit runs (into runs and the runs given)
+  /// Indices into `runs` of the first (0) and second (1) half in time of every fit window.
+  std::array<std::vector<std::size_t>, 2> folds;
+  std::vector<std::size_t> all;  ///< 0 … (number of runs given) − 1
+  DataScales scales;             ///< of the fit windows
+  ModelScales unit_scales;       ///< factors 1, shaped like the first run's model
+  bool can_cross_validate = false;  ///< both folds have runs
+
+  std::vector<RunData> window_data;  ///< the fit windows (storage)
+  std::vector<RunData> half_data;    ///< the folds' halves (storage)
+};
+
+/// Prepare: chooses the fit runs (at most options.max_fit_runs, spread over kinds and
+/// frequencies), cuts them to their last options.fit_window_s, measures the data scales on them
+/// and splits every window into two halves in time (the folds). `runs_in` must outlive the result.
+PreparedRuns prepare_runs(const std::vector<DiagnoseRun>& runs_in, const DiagnoseOptions& options);
+
+/// The model a round adds a candidate to.
+struct RoundModel {
+  Effects effects;                  ///< the effects so far
+  ModelScales scales;               ///< the coefficient factors so far
+  std::optional<AlphaModel> alpha;  ///< the re-identified α-model in use; nullopt: the runs' own
+  std::vector<EffectKind> named;    ///< the active effects (refitted with every candidate)
+};
+
+/// The first round's model: the first run's effects (all runs share them), with the Coulomb
+/// smoothing ε at 1 % of the RMS velocity when no Coulomb term is on; unit factors.
+RoundModel initial_model(const std::vector<DiagnoseRun>& runs_in, const PreparedRuns& prepared);
+
+/// Locate: where the residual θ − θ_sim of `sims` (one per run; empty for a failed run)
+/// concentrates, per run and over the state, and its words (ResidualLocation).
+ResidualLocation locate(const std::vector<DiagnoseRun>& runs,
+                        const std::vector<std::vector<double>>& sims);
+
+/// Re-identification of the α-model with a candidate's effects in the plant input. The α-model is
+/// identified from the sine runs' steady states (section 2.3.5), which absorb an unmodelled effect
+/// (a spring shifts C and β̃ with ω, a delay adds phase, friction adds damping), breakpoints and
+/// all: a candidate added to that model would have to undo the distortion through a few
+/// coefficient factors, and misses. Here the local points are taken again with the plant input
+/// through the candidate's effects (effect_sine_point.hpp) and the α-model is fitted again
+/// (alpha_fit.hpp: breakpoints by the grid search, then the two-stage fit), with each pose's
+/// inertia as the runs' models have it, so the result replaces their α-model. Usable when the
+/// runs carry one α-model and sine runs under a P law at one kp. `runs` must outlive it.
+class Reidentifier {
+ public:
+  /// `sample_period_s`: the controller tick of the digital-loop correction [s]; 0: continuous.
+  Reidentifier(const std::vector<DiagnoseRun>& runs, double sample_period_s);
+
+  bool usable() const { return usable_; }
+
+  /// The α-model identified with effects `e` in the plant input; nullopt when it fails.
+  std::optional<AlphaModel> fit(const Effects& e) const;
+
+  /// The sine runs' local points with effects `e` in the plant input, by pose.
+  std::vector<AlphaFitPose> points(const Effects& e) const;
+
+  /// The α-model with effects `e` at the given breakpoints; nullopt when it fails.
+  std::optional<AlphaModel> fit_at(const Effects& e, const std::vector<double>& breakpoints) const;
+
+  /// The α-model with effects `e`: the grid winner (fit()), with `refined` also the winner refined
+  /// off the grid (as fit_dataset() does), and the models at the next `runners_up` best
+  /// breakpoint sets of the grid search.
+  std::vector<AlphaModel> variants(const Effects& e, std::size_t runners_up, bool refined) const;
+
+ private:
+  struct SineRun {
+    const DiagnoseRun* run;
+    IndexRange window;
+    std::size_t pose;
+  };
+
+  double sample_period_s_ = 0.0;
+  AlphaFitOptions options_;
+  std::vector<double> inertia_;
+  std::vector<SineRun> sines_;
+  bool usable_ = false;
+};
+
+/// What a round starts from (start_round()).
+struct RoundStart {
+  /// RMS of θ − θ_sim over all runs with the round's model [position unit]
+  double error_before = std::numeric_limits<double>::quiet_NaN();
+  TorqueResidual torque_residual;  ///< along the fit runs, for the equation-error starts
+  /// `none`'s α-model re-identified with the current effects (the best variant; nullopt without
+  /// re-identification) and its RMS over the fit runs at unit factors (NaN without).
+  std::optional<AlphaModel> none_alpha;
+  double none_unit_rms = std::numeric_limits<double>::quiet_NaN();
+};
+
+/// The round's error over all runs given (`runs_in`), the torque residual along the fit windows
+/// and `none`'s α-model re-identified like the candidates' (so that a candidate does not win by
+/// the re-identification alone).
+RoundStart start_round(const std::vector<DiagnoseRun>& runs_in, const PreparedRuns& prepared,
+                       const RoundModel& model, const Reidentifier& reid,
+                       const DiagnoseOptions& options);
+
+/// One candidate's starts and search (search_candidate()).
+struct CandidateSearch {
+  /// true: searched with the α-model re-identified, `effects` its best point, `alpha` the best
+  /// variant there and `found_rms` its RMS over the fit runs at unit factors. false (`none`, no
+  /// re-identification, or no trial simulated): `effects` holds the start for the output-error
+  /// fit from `start_scales` with `alpha`.
+  bool searched = false;
+  Effects effects;
+  ModelScales start_scales;
+  std::optional<AlphaModel> alpha;
+  double found_rms = std::numeric_limits<double>::quiet_NaN();  ///< [position unit]
+};
+
+/// Search: the new effect `kind`'s start (the effect table's equation-error start from the torque
+/// residual, or without re-identification its first parameter scanned over the search grid),
+/// then with re-identification a coarse scan of its main parameter on a grid scaled by the data
+/// and Nelder-Mead from the best point (and the second best when nearly as good), every trial
+/// with the α-model re-identified (Reidentifier); the breakpoint set of the best point that
+/// predicts the fit runs best is kept (`none` gets the same choice in start_round()).
+CandidateSearch search_candidate(EffectKind kind, const PreparedRuns& prepared,
+                                 const RoundModel& model, const RoundStart& start,
+                                 const Reidentifier& reid, const DiagnoseOptions& options);
+
+/// A candidate fitted on all fit runs, waiting for cross_validate_lowest(): its parameter blocks
+/// and fitted values (empty: nothing waits).
+struct PendingCrossValidation {
+  std::vector<ParamBlock> blocks;
+  std::vector<double> values;
+};
+
+/// The output-error fits and cross-validation of one round's candidates: the round's model, data
+/// and options (all referenced: they must outlive it).
+class CandidateFitter {
+ public:
+  CandidateFitter(const std::vector<DiagnoseRun>& runs_in, const PreparedRuns& prepared,
+                  const RoundModel& model, const DiagnoseOptions& options);
+
+  /// The output-error parameter blocks of the effects already named and of a new `kind`
+  /// (none: no new block), with starts from `e`.
+  std::vector<ParamBlock> blocks_with(EffectKind kind, const Effects& e) const;
+
+  /// Fit: the candidate `kind` (effects `e`, factors from `start_scales`, α-model `alpha`) fitted
+  /// by output error on the fit windows together with the model's coefficient factors;
+  /// `searched`: started from search_candidate() (fewer iterations, no extra starts). Its score is
+  /// then: its training RMS when it is hopeless (not below (1 − significance/2) × that of `none`,
+  /// set_none_training_rms()) or cannot be cross-validated; the cross-validated RMS when `cv`;
+  /// else its training RMS, and its blocks and values go to *later for cross_validate(). Its
+  /// error_after is the RMS over all runs given.
+  CandidateScore fit(EffectKind kind, const Effects& e, const ModelScales& start_scales,
+                     const std::optional<AlphaModel>& alpha, bool searched, bool cv,
+                     PendingCrossValidation* later) const;
+
+  /// Cross-validate: `cand` (fitted on all fit runs: `values` of `blocks`) fitted on each fold
+  /// from there and scored on the other; score is the RMS over both held-out folds.
+  void cross_validate(CandidateScore& cand, const std::vector<ParamBlock>& blocks,
+                      const std::vector<double>& values) const;
+
+  /// A candidate not fitted further: its search result, scored by its search RMS `found_rms`.
+  CandidateScore not_fitted(EffectKind kind, const Effects& e, const std::optional<AlphaModel>& a,
+                            double found_rms, const std::string& why) const;
+
+  /// `none`'s training RMS, which the other candidates' fits are held against (NaN: not yet).
+  void set_none_training_rms(double rms) { none_training_rms_ = rms; }
+
+  const std::vector<DiagnoseRun>& runs_in() const { return runs_in_; }
+  const PreparedRuns& prepared() const { return prepared_; }
+  const RoundModel& model() const { return model_; }
+  const DiagnoseOptions& options() const { return options_; }
+
+ private:
+  const std::vector<DiagnoseRun>& runs_in_;
+  const PreparedRuns& prepared_;
+  const RoundModel& model_;
+  const DiagnoseOptions& options_;
+  double none_training_rms_;
+};
+
+/// A searched candidate waiting for its output-error fit (fit_searched()).
+struct DeferredFit {
+  std::size_t index;  ///< in the round's candidates
+  Effects effects;
+  std::optional<AlphaModel> alpha;
+  double found_rms;
+};
+
+/// Fit of the searched candidates `deferred`: each is fitted by output error unless its search RMS
+/// is more than kSearchPruneRatio (4) times the best one's (then not_fitted()): the factors
+/// fitted with it narrow the differences, but not by that much (measured: 2.9× and 3.2× behind
+/// after the search were still 1.3× and 1.4× behind after the fit; only candidates within 1.7×
+/// overtook). Writes
+/// candidates[d.index] and pending[d.index].
+void fit_searched(const CandidateFitter& fitter, const std::vector<DeferredFit>& deferred,
+                  std::vector<CandidateScore>& candidates,
+                  std::vector<PendingCrossValidation>& pending);
+
+/// Cross-validates the pending candidates with the two lowest training RMS (only they can be
+/// named: the winner must beat `none` by a margin on data it was not fitted on).
+void cross_validate_lowest(const CandidateFitter& fitter, std::vector<CandidateScore>& candidates,
+                           const std::vector<PendingCrossValidation>& pending);
+
+/// `c` is below (1 − significance) × `ref` in its score and in both folds.
+bool beats(const CandidateScore& c, const CandidateScore& ref, double significance);
+
+/// `c` is a time delay shorter than one controller tick of the digital loop (`simulation`): below
+/// what the loop resolves, its sample-and-hold and the α filter's timing already differ from the
+/// plant's by as much.
+bool delay_below_one_tick(const CandidateScore& c, const SimulationOptions& simulation);
+
+/// What choose_winner() decided.
+struct Choice {
+  bool none_fitted = false;          ///< false: `none` could not be fitted (the round fails)
+  std::optional<std::size_t> winner;  ///< index into the round's candidates (after parsimony)
+  bool named = false;                 ///< the winner is an effect and passed the guards
+};
+
+/// Choose: the cross-validated candidate with the lowest score; among those within 5 % of it the
+/// one with fewest parameters, a simpler one first refitted at the winner's breakpoints (it then
+/// replaces its entry in rd.candidates). Named when it is not `none`, not a delay below one tick,
+/// beats `none` in both folds and beats `none` refitted at its breakpoints
+/// (rd.none_at_winner_breakpoints).
+Choice choose_winner(const CandidateFitter& fitter, const Reidentifier& reid, DiagnoseRound& rd);
+
+/// Settle: the winner fitted again on the whole fit runs (from its window fit; the error over all
+/// runs also counts the runs' starts). Returns `winner` improved when the RMS over all runs drops,
+/// else `winner`. Only with options.fit_window_s > 0.
+CandidateScore settle_winner(const CandidateFitter& fitter, const CandidateScore& winner);
+
+/// The settled winner's RMS over all runs is at most (1 − significance/2) × the round's before.
+bool improves_all_runs(const CandidateScore& settled, double error_before, double significance);
+
+/// One round with the model `model`: candidates of `catalogue` (`none` first) searched, fitted,
+/// cross-validated and chosen. Returns the round; *settled receives the settled winner when it
+/// names one (rd.named ≠ none); *failure a message when `none` could not be fitted.
+DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const PreparedRuns& prepared,
+                             const RoundModel& model, const Reidentifier& reid,
+                             const std::vector<EffectKind>& catalogue,
+                             const DiagnoseOptions& options, CandidateScore* settled,
+                             std::string* failure);
+
+}  // namespace alphainv::diagnose_detail

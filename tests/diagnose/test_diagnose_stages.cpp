@@ -1,0 +1,309 @@
+// The stages of diagnose() (src/diagnose/diagnose_stages.hpp), each on its own: prepare on
+// hand-made runs, locate on a known residual, search / fit / cross-validate / settle on the
+// sweep's one-pose dataset with a hidden offset torque, choose on hand-built candidates.
+#include "diagnose/diagnose_stages.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "alphainv/simulate/experiment_plan.hpp"
+
+namespace alphainv::diagnose_detail {
+namespace {
+
+constexpr double kTwoPi = 6.283185307179586;
+
+/// A run of `seconds` at 1 kHz: r = θ = 0.1·sin(2π·t), v = v_amp·sin(2π·t), under a P law kp.
+RunData sine_data(double seconds, double v_amp) {
+  RunData d;
+  const std::size_t n = static_cast<std::size_t>(std::lround(seconds * 1000.0)) + 1;
+  for (std::size_t k = 0; k < n; ++k) {
+    const double t = 0.001 * static_cast<double>(k);
+    d.t.push_back(t);
+    d.r.push_back(0.1 * std::sin(kTwoPi * t));
+    d.theta.push_back(0.1 * std::sin(kTwoPi * t));
+    d.v.push_back(v_amp * std::sin(kTwoPi * t));
+  }
+  return d;
+}
+
+DiagnoseRun run_of(const RunData& d, const std::string& name, double kp) {
+  DiagnoseRun r;
+  r.data = &d;
+  r.name = name;
+  r.kind = "sine";
+  r.freq_hz = 1.0;
+  r.controller.kp = kp;
+  r.model = model_at_pose(paper_linear_model(), paper_alpha_model(), deg_to_rad(60.08),
+                          deg_to_rad(87.0));
+  return r;
+}
+
+TEST(DiagnoseStages, PrepareCutsWindowsAndFoldsAndMeasuresTheScales) {
+  const RunData a = sine_data(4.0, 0.5), b = sine_data(3.0, 0.8), c = sine_data(2.0, 0.2);
+  const std::vector<DiagnoseRun> runs = {run_of(a, "a", 2.0), run_of(b, "b", 3.0),
+                                         run_of(c, "c", 3.0)};
+  DiagnoseOptions opt;
+  opt.fit_window_s = 2.5;
+  const PreparedRuns p = prepare_runs(runs, opt);
+  ASSERT_EQ(p.fit_runs, (std::vector<std::size_t>{0, 1, 2}));
+  ASSERT_EQ(p.runs.size(), 3u + 6u);  // the runs, then two halves per fit run
+  EXPECT_EQ(p.all, (std::vector<std::size_t>{0, 1, 2}));
+  // Windows: the last 2.5 s (2501 samples) with 0.3 s of history; c (2 s) whole, no history.
+  EXPECT_EQ(p.runs[0].data->size(), 2501u);
+  EXPECT_DOUBLE_EQ(p.runs[0].data->t.front(), a.t[1500]);
+  EXPECT_EQ(p.runs[0].command_history.size(), 300u);
+  EXPECT_EQ(p.runs[0].command_history.back(), a.v[1499]);
+  EXPECT_EQ(p.runs[1].data->size(), 2501u);
+  EXPECT_EQ(p.runs[2].data->size(), c.size());
+  EXPECT_TRUE(p.runs[2].command_history.empty());
+  // Folds: first and second half of each window; the second half's history is the 300
+  // commands before it.
+  ASSERT_EQ(p.folds[0], (std::vector<std::size_t>{3, 5, 7}));
+  ASSERT_EQ(p.folds[1], (std::vector<std::size_t>{4, 6, 8}));
+  EXPECT_TRUE(p.can_cross_validate);
+  EXPECT_EQ(p.runs[3].data->size(), 1250u);
+  EXPECT_EQ(p.runs[4].data->size(), 1251u);
+  EXPECT_DOUBLE_EQ(p.runs[4].data->t.front(), a.t[1500 + 1250]);
+  EXPECT_EQ(p.runs[4].command_history.size(), 300u);
+  EXPECT_EQ(p.runs[4].command_history.back(), a.v[1500 + 1249]);
+  EXPECT_EQ(p.runs[3].command_history, p.runs[0].command_history);
+  // Scales of the windows: the largest |v| (b's 0.8), θ's range, the first run's kp, and the
+  // RMS of θ̇ = 0.2π·cos(2πt) over whole periods (0.2π/√2 ≈ 0.444).
+  EXPECT_NEAR(p.scales.v_max, 0.8, 1e-6);
+  EXPECT_NEAR(p.scales.theta_min, -0.1, 1e-6);
+  EXPECT_NEAR(p.scales.theta_max, 0.1, 1e-6);
+  EXPECT_EQ(p.scales.kp, 2.0);
+  EXPECT_NEAR(p.scales.theta_dot_rms, 0.1 * kTwoPi / std::sqrt(2.0), 0.01);
+  // Unit factors shaped like the α-model: one per breakpoint, two β̃ ends.
+  EXPECT_EQ(p.unit_scales.c, std::vector<double>(paper_alpha_model().n_breakpoints, 1.0));
+  EXPECT_EQ(p.unit_scales.beta, (std::vector<double>{1.0, 1.0}));
+  const RoundModel m = initial_model(runs, p);
+  EXPECT_TRUE(m.named.empty());
+  EXPECT_DOUBLE_EQ(m.effects.coulomb_smoothing_rad_s, 0.01 * p.scales.theta_dot_rms);
+
+  // At most two fit runs: spread over the runs; no fit window: whole runs.
+  opt.max_fit_runs = 2;
+  opt.fit_window_s = 0.0;
+  const PreparedRuns q = prepare_runs(runs, opt);
+  EXPECT_EQ(q.fit_runs, (std::vector<std::size_t>{0, 2}));
+  EXPECT_EQ(q.runs[0].data->size(), a.size());
+  EXPECT_EQ(q.runs.size(), 3u + 4u);
+}
+
+TEST(DiagnoseStages, LocateMeasuresTheResidualWhereItIs) {
+  const RunData a = sine_data(2.0, 0.5), b = sine_data(2.0, 0.5);
+  const std::vector<DiagnoseRun> runs = {run_of(a, "a.csv", 2.0), run_of(b, "b.csv", 2.0)};
+  // Run a off by 0.01 everywhere, run b by 0.02 only where |θ̇| is below 10 % of its largest
+  // value (at the reversals).
+  std::vector<std::vector<double>> sims = {a.theta, b.theta};
+  for (double& x : sims[0]) x -= 0.01;
+  std::size_t n_rev = 0;
+  for (std::size_t k = 0; k < b.size(); ++k) {
+    if (std::abs(std::cos(kTwoPi * b.t[k])) < 0.1) {
+      sims[1][k] -= 0.02;
+      ++n_rev;
+    }
+  }
+  const ResidualLocation loc = locate(runs, sims);
+  ASSERT_EQ(loc.run_rms.size(), 2u);
+  EXPECT_NEAR(loc.run_rms[0], 0.01, 1e-12);
+  const double share = static_cast<double>(n_rev) / static_cast<double>(b.size());
+  EXPECT_NEAR(loc.run_rms[1], 0.02 * std::sqrt(share), 1e-4);
+  EXPECT_NEAR(loc.rms, std::sqrt(0.5 * (0.01 * 0.01 + 0.02 * 0.02 * share)), 1e-4);
+  EXPECT_GT(loc.reversal_concentration, 1.5);
+  const bool said = std::any_of(loc.findings.begin(), loc.findings.end(), [](const std::string& f) {
+    return f.find("at velocity reversals") != std::string::npos;
+  });
+  EXPECT_TRUE(said);
+  EXPECT_NE(loc.findings.back().find("largest errors in runs a.csv"), std::string::npos)
+      << loc.findings.back();
+}
+
+/// The sweep's 10-run dataset of one pose (test_diagnose.cpp) with a hidden offset torque,
+/// fitted without the offset, as diagnose() sees it: 4 fit runs, 1.5 s windows.
+struct OffsetCase {
+  GeneratedDataset g;
+  DatasetFit fit;
+  std::vector<DiagnoseRun> runs;
+  DiagnoseOptions opt;
+  PreparedRuns prepared;
+  RoundModel model;
+};
+
+const OffsetCase& offset_case() {
+  static const OffsetCase* c = [] {
+    auto* oc = new OffsetCase;
+    ExperimentPlanOptions plan = paper_plan_options(4);
+    plan.plant.effects.offset_v = 0.02;
+    plan.sine_poses = {paper_sine_poses()[4]};
+    plan.square_poses = plan.sine_poses;
+    oc->g = generate_dataset(make_experiment_plan(plan));
+    FitPipelineOptions fo;
+    fo.validate = false;
+    oc->fit = fit_dataset(oc->g.index, oc->g.runs, fo);
+    oc->runs = diagnose_runs(oc->g.index, oc->g.runs, oc->fit);
+    oc->opt.simulation = oc->fit.simulation;
+    oc->opt.max_fit_runs = 4;
+    oc->opt.fit_window_s = 1.5;
+    oc->prepared = prepare_runs(oc->runs, oc->opt);
+    oc->model = initial_model(oc->runs, oc->prepared);
+    return oc;
+  }();
+  return *c;
+}
+
+TEST(DiagnoseStages, SearchFindsTheHiddenOffsetLowest) {
+  const OffsetCase& c = offset_case();
+  const Reidentifier reid(c.runs, c.opt.simulation.loop_period_s);
+  ASSERT_TRUE(reid.usable());
+  const RoundStart start = start_round(c.runs, c.prepared, c.model, reid, c.opt);
+  ASSERT_TRUE(start.none_alpha.has_value());
+  ASSERT_TRUE(std::isfinite(start.none_unit_rms));
+  EXPECT_GT(start.torque_residual.n_hat.size(), 1000u);
+  const CandidateSearch offset =
+      search_candidate(EffectKind::kOffsetTorque, c.prepared, c.model, start, reid, c.opt);
+  ASSERT_TRUE(offset.searched);
+  EXPECT_NEAR(offset.effects.offset_v, 0.02, 0.1 * 0.02);
+  // The search alone (unit factors) cuts the gap on the fit runs to 13 % here.
+  EXPECT_LT(offset.found_rms, 0.2 * start.none_unit_rms);
+  for (EffectKind other : {EffectKind::kTimeDelay, EffectKind::kDeadzone}) {
+    const CandidateSearch s = search_candidate(other, c.prepared, c.model, start, reid, c.opt);
+    ASSERT_TRUE(s.searched) << effect_name(other);
+    EXPECT_GT(s.found_rms, 4.0 * offset.found_rms) << effect_name(other);  // 6× here
+  }
+  // `none` is not searched: it starts from its own re-identified α-model at unit factors.
+  const CandidateSearch none =
+      search_candidate(EffectKind::kNone, c.prepared, c.model, start, reid, c.opt);
+  EXPECT_FALSE(none.searched);
+  EXPECT_EQ(none.start_scales.c, c.prepared.unit_scales.c);
+  ASSERT_TRUE(none.alpha.has_value());
+  EXPECT_EQ(none.alpha->alpha, start.none_alpha->alpha);
+}
+
+TEST(DiagnoseStages, FitAndCrossValidateScoreTheOffsetBelowNoneAndSettleIt) {
+  // Without re-identification: the offset starts from the equation-error regression on the
+  // torque residual and is fitted by output error with the model's factors.
+  const OffsetCase& c = offset_case();
+  const std::vector<DiagnoseRun> no_runs;
+  const Reidentifier reid(no_runs, 0.0);
+  const RoundStart start = start_round(c.runs, c.prepared, c.model, reid, c.opt);
+  EXPECT_FALSE(start.none_alpha.has_value());
+  CandidateFitter fitter(c.runs, c.prepared, c.model, c.opt);
+  const CandidateSearch none_start =
+      search_candidate(EffectKind::kNone, c.prepared, c.model, start, reid, c.opt);
+  const CandidateScore none = fitter.fit(EffectKind::kNone, none_start.effects,
+                                         none_start.start_scales, none_start.alpha, false, true,
+                                         nullptr);
+  ASSERT_TRUE(none.ok) << none.message;
+  EXPECT_TRUE(none.cross_validated);
+  fitter.set_none_training_rms(none.training_rms);
+  const CandidateSearch s =
+      search_candidate(EffectKind::kOffsetTorque, c.prepared, c.model, start, reid, c.opt);
+  EXPECT_FALSE(s.searched);
+  EXPECT_NEAR(s.effects.offset_v, 0.02, 0.1 * 0.02);  // the regression's start
+  PendingCrossValidation later;
+  CandidateScore offset =
+      fitter.fit(EffectKind::kOffsetTorque, s.effects, s.start_scales, s.alpha, false, false, &later);
+  ASSERT_TRUE(offset.ok) << offset.message;
+  EXPECT_FALSE(offset.cross_validated);  // left for cross_validate()
+  EXPECT_EQ(offset.score, offset.training_rms);
+  ASSERT_EQ(later.blocks.size(), 1u);
+  EXPECT_EQ(later.blocks[0].kind, EffectKind::kOffsetTorque);
+  EXPECT_EQ(later.values.size(), c.prepared.unit_scales.c.size() + 2u + 1u);
+  EXPECT_NEAR(offset.effects.offset_v, 0.02, 0.1 * 0.02);
+  EXPECT_LT(offset.training_rms, 0.1 * none.training_rms);  // 7 % here
+  fitter.cross_validate(offset, later.blocks, later.values);
+  EXPECT_TRUE(offset.cross_validated);
+  for (const CandidateScore* x : {&none, static_cast<const CandidateScore*>(&offset)}) {
+    EXPECT_TRUE(std::isfinite(x->score));
+    EXPECT_TRUE(std::isfinite(x->fold_scores[0]));
+    EXPECT_TRUE(std::isfinite(x->fold_scores[1]));
+    EXPECT_TRUE(std::isfinite(x->error_after));
+  }
+  // The score pools both held-out folds: it lies between them.
+  EXPECT_LE(offset.score, std::max(offset.fold_scores[0], offset.fold_scores[1]) * (1 + 1e-12));
+  EXPECT_GE(offset.score, std::min(offset.fold_scores[0], offset.fold_scores[1]) * (1 - 1e-12));
+  EXPECT_LT(offset.score, 0.1 * none.score);  // 8 % here
+  EXPECT_TRUE(beats(offset, none, c.opt.significance));
+  EXPECT_FALSE(beats(none, offset, c.opt.significance));
+  EXPECT_LT(offset.error_after, 0.7 * start.error_before);
+
+  // Settle: fitted again on the whole fit runs, the error over all runs is not larger, and it
+  // passes the all-runs check.
+  const CandidateScore settled = settle_winner(fitter, offset);
+  EXPECT_LT(settled.error_after, 0.9 * offset.error_after);  // 0.0035 from 0.0044 here
+  EXPECT_NE(settled.message.find("settled on the whole fit runs"), std::string::npos);
+  EXPECT_EQ(settled.effect, EffectKind::kOffsetTorque);
+  EXPECT_TRUE(improves_all_runs(settled, start.error_before, c.opt.significance));
+  EXPECT_FALSE(improves_all_runs(settled, settled.error_after, c.opt.significance));
+  // Without fit windows there is nothing to settle.
+  DiagnoseOptions whole = c.opt;
+  whole.fit_window_s = 0.0;
+  CandidateFitter whole_fitter(c.runs, c.prepared, c.model, whole);
+  EXPECT_EQ(settle_winner(whole_fitter, offset).error_after, offset.error_after);
+}
+
+/// A cross-validated candidate with score s in both folds.
+CandidateScore scored(EffectKind kind, double s) {
+  CandidateScore c;
+  c.effect = kind;
+  c.ok = true;
+  c.score = s;
+  c.fold_scores = {s, s};
+  return c;
+}
+
+TEST(DiagnoseStages, ChooseTakesTheSimplerWithinFivePercentAndRefusesASubTickDelay) {
+  // Hand-built candidates without α-models: choose_winner() fits nothing then.
+  const RunData a = sine_data(2.0, 0.5);
+  const std::vector<DiagnoseRun> runs = {run_of(a, "a", 2.0)};
+  DiagnoseOptions opt;
+  opt.simulation.loop_period_s = 0.001;
+  const PreparedRuns p = prepare_runs(runs, opt);
+  const RoundModel m = initial_model(runs, p);
+  const CandidateFitter fitter(runs, p, m, opt);
+  const std::vector<DiagnoseRun> no_runs;
+  const Reidentifier reid(no_runs, 0.0);
+
+  DiagnoseRound rd;
+  rd.candidates = {scored(EffectKind::kNone, 1.0), scored(EffectKind::kGravity, 0.50),
+                   scored(EffectKind::kOffsetTorque, 0.52), scored(EffectKind::kCogging, 0.40)};
+  rd.candidates[3].cross_validated = false;  // pruned: its training RMS, not a score
+  Choice ch = choose_winner(fitter, reid, rd);
+  ASSERT_TRUE(ch.none_fitted);
+  ASSERT_TRUE(ch.winner.has_value());
+  EXPECT_EQ(rd.candidates[*ch.winner].effect, EffectKind::kOffsetTorque);  // 1 parameter, +4 %
+  EXPECT_TRUE(ch.named);
+  EXPECT_FALSE(rd.none_at_winner_breakpoints.has_value());
+
+  rd.candidates[2].score = 0.53;  // +6 %: the better one stays
+  ch = choose_winner(fitter, reid, rd);
+  EXPECT_EQ(rd.candidates[*ch.winner].effect, EffectKind::kGravity);
+  EXPECT_TRUE(ch.named);
+
+  rd.candidates[1].fold_scores[1] = 0.95;  // not 10 % below `none` in fold 2
+  ch = choose_winner(fitter, reid, rd);
+  EXPECT_EQ(rd.candidates[*ch.winner].effect, EffectKind::kGravity);
+  EXPECT_FALSE(ch.named);
+
+  // A delay of half a tick wins but is not named; one of two ticks is.
+  DiagnoseRound d;
+  d.candidates = {scored(EffectKind::kNone, 1.0), scored(EffectKind::kTimeDelay, 0.5)};
+  d.candidates[1].effects.delay_s = 0.0005;
+  ch = choose_winner(fitter, reid, d);
+  EXPECT_EQ(d.candidates[*ch.winner].effect, EffectKind::kTimeDelay);
+  EXPECT_FALSE(ch.named);
+  EXPECT_TRUE(delay_below_one_tick(d.candidates[1], opt.simulation));
+  d.candidates[1].effects.delay_s = 0.002;
+  EXPECT_TRUE(choose_winner(fitter, reid, d).named);
+
+  // `none` not fitted: the round fails.
+  d.candidates[0].ok = false;
+  EXPECT_FALSE(choose_winner(fitter, reid, d).none_fitted);
+}
+
+}  // namespace
+}  // namespace alphainv::diagnose_detail
