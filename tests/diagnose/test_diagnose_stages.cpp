@@ -142,7 +142,7 @@ const OffsetCase& offset_case() {
     plan.square_poses = plan.sine_poses;
     oc->g = generate_dataset(make_experiment_plan(plan));
     FitPipelineOptions fo;
-    fo.validate = false;
+    fo.run_validation = false;
     oc->fit = fit_dataset(oc->g.index, oc->g.runs, fo);
     oc->runs = diagnose_runs(oc->g.index, oc->g.runs, oc->fit);
     oc->opt.simulation = oc->fit.simulation;
