@@ -11,6 +11,7 @@
 
 #include "alphainv/data/dataset.hpp"
 #include "alphainv/diagnose/diagnose.hpp"
+#include "alphainv/diagnose/diagnose_report.hpp"
 #include "alphainv/error.hpp"
 #include "alphainv/data/model_file.hpp"
 #include "alphainv/simulate/model_simulation.hpp"
@@ -26,27 +27,40 @@ namespace fs = std::filesystem;
 
 nlohmann::json num(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); }
 
-std::string fmt(double x, const char* f = "%.4g") {
-  if (std::isnan(x)) return "–";
-  if (std::isinf(x)) return x > 0 ? "∞" : "−∞";
-  char b[64];
-  std::snprintf(b, sizeof b, f, x);
-  return b;
-}
-
 nlohmann::json parameters_json(const Effects& e, EffectKind kind) {
   nlohmann::json p = nlohmann::json::object();
   for (const auto& par : effect_parameters(kind)) p[par.name] = num(e.*(par.member));
   return p;
 }
 
-std::string parameters_text(const Effects& e, EffectKind kind) {
-  std::string s;
-  for (const auto& par : effect_parameters(kind)) {
-    s += (s.empty() ? "" : ", ") + std::string(par.name) + " = " + fmt(e.*(par.member)) + " " +
-         par.unit;
+/// The --json object: the first named effect (`effect`, `parameters`), the RMS before and after,
+/// the first round's candidates, the names of the effects, and every named effect in `named`.
+nlohmann::json result_json(const DiagnoseResult& res) {
+  const EffectKind first = res.effects_named.empty() ? EffectKind::kNone : res.effects_named.front();
+  nlohmann::json j;
+  j["effect"] = effect_name(first);
+  j["parameters"] = parameters_json(res.effects, first);
+  j["error_before"] = num(res.error_before);
+  j["error_after"] = num(res.error_after);
+  nlohmann::json cands = nlohmann::json::array();
+  for (const auto& c : res.rounds.front().candidates) {
+    cands.push_back({{"effect", effect_name(c.effect)}, {"score", num(c.score)},
+                     {"error_after", num(c.error_after)}});
   }
-  return s.empty() ? "–" : s;
+  j["candidates"] = cands;
+  nlohmann::json names = nlohmann::json::array();
+  for (EffectKind k : res.effects_named) names.push_back(effect_name(k));
+  j["effects"] = names;
+  // Every named effect in order with its parameters and the error over all runs after its round.
+  nlohmann::json named = nlohmann::json::array();
+  for (const DiagnoseRound& rd : res.rounds) {
+    if (rd.named == EffectKind::kNone) continue;
+    named.push_back({{"effect", effect_name(rd.named)},
+                     {"parameters", parameters_json(res.effects, rd.named)},
+                     {"error_after", num(rd.error_after)}});
+  }
+  j["named"] = named;
+  return j;
 }
 
 /// The model file with the diagnosed effects and coefficient factors folded in.
@@ -119,57 +133,6 @@ std::string residual_figures(const fs::path& out, const std::vector<DiagnoseRun>
     }
   }
   return md.str();
-}
-
-std::string make_report(const std::string& dataset, const std::vector<DiagnoseRun>& runs,
-                        const DiagnoseResult& r, const std::string& model_source) {
-  std::ostringstream s;
-  s << "# omni_fit diagnose report\n\nDataset: `" << dataset << "` (" << runs.size()
-    << " runs; model: " << model_source << "). Candidates fitted and scored on "
-    << r.fit_runs.size() << " runs; wall time " << fmt(r.seconds, "%.1f") << " s.\n\n";
-  s << "## Where the model was wrong (before)\n\n";
-  for (const auto& f : r.before.findings) s << "- " << f << "\n";
-  s << "\n## Candidates\n\nEach candidate effect was searched with the α-model re-identified "
-       "from the sine runs with the effect in the plant input (when the model has an α-model and "
-       "the dataset sine runs), then fitted by output error together with the α-model's "
-       "coefficient factors, and scored by 2-fold cross-validation (fitted on one half of each "
-       "fit window, RMS error on the other half). An effect is named only when its score is at "
-       "least 10 % below that of `none` in both folds, the error over all runs drops by 5 % or "
-       "more, and it also beats `none` refitted at its α-model's breakpoints. See "
-       "docs/diagnose.md.\n\n";
-  for (std::size_t round = 0; round < r.rounds.size(); ++round) {
-    const DiagnoseRound& rd = r.rounds[round];
-    s << "### Round " << round + 1 << ": " << effect_name(rd.named) << " (RMS error "
-      << fmt(rd.error_before) << " → " << fmt(rd.error_after) << ")\n\n"
-      << "| effect | score (CV RMS) | fold 1 | fold 2 | RMS after, all runs | parameters | note |\n"
-         "|---|---|---|---|---|---|---|\n";
-    for (const auto& c : rd.candidates) {
-      s << "| " << (c.effect == rd.named ? "**" + std::string(effect_name(c.effect)) + "**"
-                                         : std::string(effect_name(c.effect)))
-        << " | " << fmt(c.score) << " | " << fmt(c.fold_scores[0]) << " | "
-        << fmt(c.fold_scores[1]) << " | " << fmt(c.error_after) << " | "
-        << (c.ok ? parameters_text(c.effects, c.effect) : "–") << " | " << c.message << " |\n";
-    }
-    if (rd.none_at_winner_breakpoints) {
-      const CandidateScore& t = *rd.none_at_winner_breakpoints;
-      s << "| none at the winner's breakpoints | " << fmt(t.score) << " | " << fmt(t.fold_scores[0])
-        << " | " << fmt(t.fold_scores[1]) << " | " << fmt(t.error_after)
-        << " | – | the winner must beat this too |\n";
-    }
-    s << "\n";
-  }
-  s << "## The gap before and after\n\nRMS of θ − θ_sim over all runs: **" << fmt(r.error_before)
-    << " → " << fmt(r.error_after) << "**";
-  if (r.error_before > 0) s << " (" << fmt(100.0 * (1.0 - r.error_after / r.error_before), "%.1f") << " % less)";
-  s << ".\n\n| run | RMS before | RMS after | change |\n|---|---|---|---|\n";
-  for (std::size_t i = 0; i < runs.size(); ++i) {
-    const double b = r.before.run_rms[i], a = r.after.run_rms[i];
-    s << "| " << runs[i].name << " | " << fmt(b) << " | " << fmt(a) << " | "
-      << (b > 0 ? fmt(100.0 * (a / b - 1.0), "%+.1f") + " %" : "–") << " |\n";
-  }
-  s << "\n## Where the model is wrong now (after)\n\n";
-  for (const auto& f : r.after.findings) s << "- " << f << "\n";
-  return s.str();
 }
 
 }  // namespace
@@ -269,36 +232,20 @@ int run_diagnose(const DiagnoseCommandOptions& o) {
                      : residual_figures(out, runs, res, dopt.simulation, effects_before,
                                         ds.position_unit, warning);
       if (!warning.empty() && !o.quiet) std::fprintf(stderr, "omni_fit diagnose: %s\n", warning.c_str());
-      write_text_atomic(out / "report.md", make_report(o.dataset_dir, runs, res, model_source) + figs);
+      write_text_atomic(out / "report.md",
+                        diagnose_report_markdown(res, runs, o.dataset_dir, model_source) + figs);
     } catch (const std::exception& e) {
       std::fprintf(stderr, "omni_fit diagnose: writing %s: %s\n", out.string().c_str(), e.what());
       return 2;
     }
   }
-  const EffectKind first = res.effects_named.empty() ? EffectKind::kNone : res.effects_named.front();
   if (o.json) {
-    nlohmann::json j;
-    j["effect"] = effect_name(first);
-    j["parameters"] = parameters_json(res.effects, first);
-    j["error_before"] = num(res.error_before);
-    j["error_after"] = num(res.error_after);
-    nlohmann::json cands = nlohmann::json::array();
-    for (const auto& c : res.rounds.front().candidates) {
-      cands.push_back({{"effect", effect_name(c.effect)}, {"score", num(c.score)},
-                       {"error_after", num(c.error_after)}});
-    }
-    j["candidates"] = cands;
-    nlohmann::json names = nlohmann::json::array();
-    for (EffectKind k : res.effects_named) names.push_back(effect_name(k));
-    j["effects"] = names;
-    std::printf("%s\n", j.dump().c_str());
+    std::printf("%s\n", result_json(res).dump().c_str());
   } else if (!o.quiet) {
-    std::printf("omni_fit diagnose: %s; RMS of theta - theta_sim %s -> %s (%zu runs, %.1f s)\n",
-                effect_name(first), fmt(res.error_before).c_str(), fmt(res.error_after).c_str(),
-                runs.size(), res.seconds);
+    std::printf("omni_fit diagnose: %s\n", res.brief_report().c_str());
     for (const auto& f : res.before.findings) std::printf("  before: %s\n", f.c_str());
-    if (first != EffectKind::kNone)
-      std::printf("  %s: %s\n", effect_name(first), parameters_text(res.effects, first).c_str());
+    for (EffectKind k : res.effects_named)
+      std::printf("  %s: %s\n", effect_name(k), effect_parameters_text(res.effects, k).c_str());
   }
   return 0;
 }

@@ -12,11 +12,13 @@
 #include <Eigen/Dense>
 #include <nlopt.h>
 
+#include "alphainv/error.hpp"
 #include "alphainv/identify/alpha_fit.hpp"
 #include "alphainv/identify/effect_sine_point.hpp"
 #include "alphainv/identify/output_error.hpp"
 #include "alphainv/simulate/reference.hpp"
 #include "alphainv/identify/time_domain_fit.hpp"
+#include "alphainv/model/detail/field_checks.hpp"
 #include "common/format.hpp"
 #include "common/parallel_for.hpp"
 
@@ -1238,10 +1240,55 @@ std::vector<std::vector<double>> simulate_diagnosed(const std::vector<DiagnoseRu
   return out;
 }
 
+void DiagnoseOptions::validate() const {
+  using detail::bad;
+  if (max_effects < 1) bad("max_effects", "at least 1", static_cast<double>(max_effects));
+  if (max_fit_runs < 1) bad("max_fit_runs", "at least 1", static_cast<double>(max_fit_runs));
+  if (max_residuals_per_run < 1) {
+    bad("max_residuals_per_run", "at least 1", static_cast<double>(max_residuals_per_run));
+  }
+  detail::require_nonnegative("fit_window_s", fit_window_s);
+  if (!(significance >= 0.0 && significance < 1.0)) {
+    bad("significance", "a number in [0, 1)", significance);
+  }
+  for (std::size_t i = 0; i < candidates.size(); ++i) {
+    const std::string field = "candidates[" + std::to_string(i) + "]";
+    if (std::find(kAllEffectKinds.begin(), kAllEffectKinds.end(), candidates[i]) ==
+        kAllEffectKinds.end()) {
+      bad(field, "an effect of the catalogue", static_cast<double>(candidates[i]));
+    }
+    if (std::find(candidates.begin(), candidates.begin() + static_cast<std::ptrdiff_t>(i),
+                  candidates[i]) != candidates.begin() + static_cast<std::ptrdiff_t>(i)) {
+      throw Error(std::string("expected each effect once, found ") + effect_name(candidates[i]) +
+                      " again",
+                  {}, 0, field);
+    }
+  }
+  detail::require_nonnegative("simulation.loop_period_s", simulation.loop_period_s);
+}
+
+namespace {
+
+/// false, with `res` saying why, when `opt` does not validate.
+bool options_valid(const DiagnoseOptions& opt, DiagnoseResult& res) {
+  try {
+    opt.validate();
+    return true;
+  } catch (const Error& e) {
+    res.termination = DiagnoseTermination::kInvalidOptions;
+    res.message = std::string("invalid options: ") + e.what();
+    return false;
+  }
+}
+
+}  // namespace
+
 DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseOptions& opt) {
   using namespace diagnose_detail;
   const auto t_start = std::chrono::steady_clock::now();
   DiagnoseResult res;
+  if (!options_valid(opt, res)) return res;
+  res.termination = DiagnoseTermination::kInvalidInput;
   if (runs_in.empty()) {
     res.message = "no runs to diagnose";
     return res;
@@ -1269,6 +1316,7 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
   const std::vector<DiagnoseRun> no_runs;
   // (runs_in must outlive reid: it keeps pointers to the sine runs)
   const Reidentifier reid(opt.reidentify ? runs_in : no_runs, opt.simulation.loop_period_s);
+  res.termination = DiagnoseTermination::kMaxEffects;
   for (std::size_t round = 0; round < opt.max_effects; ++round) {
     CandidateScore settled;
     std::string failure;
@@ -1277,10 +1325,14 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
     const EffectKind named = rd.named;
     res.rounds.push_back(std::move(rd));
     if (!failure.empty()) {
+      res.termination = DiagnoseTermination::kFailure;
       res.message = failure;
       break;
     }
-    if (named == EffectKind::kNone) break;
+    if (named == EffectKind::kNone) {
+      res.termination = DiagnoseTermination::kNoneNamed;
+      break;
+    }
     // The named effect stays in the model (and is refitted in the next round).
     model.effects = settled.effects;
     model.scales = settled.scales;
@@ -1327,14 +1379,16 @@ std::vector<DiagnoseRun> diagnose_runs(const Dataset& dataset, const std::vector
 DiagnoseResult diagnose_dataset(const Dataset& dataset, const std::vector<RunData>& data,
                                 DiagnoseOptions options, const FitPipelineOptions& fit_options,
                                 DatasetFit* fit_out) {
+  DiagnoseResult res;
+  if (!options_valid(options, res)) return res;  // before the fit
   FitPipelineOptions fo = fit_options;
   fo.run_validation = false;
   if (fo.threads == 0) fo.threads = options.threads;
   DatasetFit fit = fit_dataset(dataset, data, fo);
   options.simulation = fit.simulation;
   const std::vector<DiagnoseRun> runs = diagnose_runs(dataset, data, fit);
-  DiagnoseResult res;
   if (runs.empty()) {
+    res.termination = DiagnoseTermination::kInvalidInput;
     res.message = "no run has a fitted model to diagnose";
   } else {
     res = diagnose(runs, options);

@@ -2,10 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <string>
 
 #include <gtest/gtest.h>
 
-#include "alphainv/simulate/experiment_plan.hpp"
+#include "alphainv/error.hpp"
+
+#include "diagnose/one_pose_dataset.hpp"
 
 namespace alphainv {
 namespace {
@@ -42,19 +46,58 @@ TEST(Diagnose, BadInputGivesAMessage) {
   r.name = "short.csv";
   const DiagnoseResult res = diagnose({r});
   EXPECT_FALSE(res.ok);
+  EXPECT_EQ(res.termination, DiagnoseTermination::kInvalidInput);
   EXPECT_NE(res.message.find("short.csv"), std::string::npos) << res.message;
 }
 
-/// The 10-run dataset of `omni_fit sweep`: the sine sweep and a square wave at one pose, with one
-/// hidden effect (or none).
-GeneratedDataset one_pose_dataset(const Effects& hidden, std::uint64_t seed) {
-  ExperimentPlanOptions plan = paper_plan_options(seed);
-  plan.plant.effects = hidden;
-  const auto poses = paper_sine_poses();
-  plan.sine_poses = {poses[seed % poses.size()]};
-  plan.square_poses = plan.sine_poses;
-  return generate_dataset(make_experiment_plan(plan));
+/// The field DiagnoseOptions::validate() names for `o` ("" when it accepts them).
+std::string refused_field(const DiagnoseOptions& o) {
+  try {
+    o.validate();
+  } catch (const Error& e) {
+    return e.field();
+  }
+  return "";
 }
+
+TEST(Diagnose, OptionsValidateNamingTheField) {
+  DiagnoseOptions o;
+  EXPECT_EQ(refused_field(o), "");
+  o.max_effects = 0;
+  EXPECT_EQ(refused_field(o), "max_effects");
+  o = {};
+  o.max_fit_runs = 0;
+  EXPECT_EQ(refused_field(o), "max_fit_runs");
+  o = {};
+  o.max_residuals_per_run = 0;
+  EXPECT_EQ(refused_field(o), "max_residuals_per_run");
+  o = {};
+  o.fit_window_s = -1.0;
+  EXPECT_EQ(refused_field(o), "fit_window_s");
+  o.fit_window_s = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(refused_field(o), "fit_window_s");
+  o = {};
+  o.significance = 1.0;
+  EXPECT_EQ(refused_field(o), "significance");
+  o.significance = std::nan("");
+  EXPECT_EQ(refused_field(o), "significance");
+  o = {};
+  o.candidates = {EffectKind::kDeadzone, EffectKind::kOffsetTorque, EffectKind::kDeadzone};
+  EXPECT_EQ(refused_field(o), "candidates[2]");
+  o.candidates = {static_cast<EffectKind>(99)};
+  EXPECT_EQ(refused_field(o), "candidates[0]");
+  o = {};
+  o.simulation.loop_period_s = -0.001;
+  EXPECT_EQ(refused_field(o), "simulation.loop_period_s");
+  // diagnose() does not throw: the result says which field, before looking at the runs.
+  const DiagnoseResult r = diagnose({}, o);
+  EXPECT_FALSE(r.ok);
+  EXPECT_EQ(r.termination, DiagnoseTermination::kInvalidOptions);
+  EXPECT_EQ(r.message,
+            "invalid options: 'simulation.loop_period_s': expected a finite number >= 0, got -0.001");
+}
+
+using test::one_pose_dataset;
 
 /// diagnose_dataset() on one_pose_dataset(hidden, seed): it must name `expected` alone and cut
 /// the gap by 30 % or more.
@@ -62,6 +105,7 @@ DiagnoseResult expect_named(const Effects& hidden, std::uint64_t seed, EffectKin
   const GeneratedDataset g = one_pose_dataset(hidden, seed);
   const DiagnoseResult r = diagnose_dataset(g.index, g.runs, DiagnoseOptions{});
   EXPECT_TRUE(r.ok) << r.message;
+  EXPECT_EQ(r.termination, DiagnoseTermination::kMaxEffects);
   EXPECT_EQ(r.effects_named.size(), 1u);
   EXPECT_EQ(r.effects_named.empty() ? EffectKind::kNone : r.effects_named[0], expected);
   EXPECT_LT(r.error_after, 0.7 * r.error_before);  // the gap shrinks by 30 % or more
@@ -135,6 +179,7 @@ TEST(DiagnoseSweep, SaysNoneOnEffectFreeData) {
   const DiagnoseResult r = diagnose_dataset(g.index, g.runs, DiagnoseOptions{});
   ASSERT_TRUE(r.ok) << r.message;
   EXPECT_TRUE(r.effects_named.empty());
+  EXPECT_EQ(r.termination, DiagnoseTermination::kNoneNamed);
   EXPECT_EQ(r.rounds.front().named, EffectKind::kNone);
   EXPECT_DOUBLE_EQ(r.error_after, r.error_before);  // the model is left as it was
   EXPECT_FALSE(r.before.findings.empty());

@@ -8,7 +8,7 @@
 
 #include <gtest/gtest.h>
 
-#include "alphainv/simulate/experiment_plan.hpp"
+#include "diagnose/one_pose_dataset.hpp"
 
 namespace alphainv::diagnose_detail {
 namespace {
@@ -136,11 +136,9 @@ struct OffsetCase {
 const OffsetCase& offset_case() {
   static const OffsetCase* c = [] {
     auto* oc = new OffsetCase;
-    ExperimentPlanOptions plan = paper_plan_options(4);
-    plan.plant.effects.offset_v = 0.02;
-    plan.sine_poses = {paper_sine_poses()[4]};
-    plan.square_poses = plan.sine_poses;
-    oc->g = generate_dataset(make_experiment_plan(plan));
+    Effects hidden;
+    hidden.offset_v = 0.02;
+    oc->g = test::one_pose_dataset(hidden, 4);
     FitPipelineOptions fo;
     fo.run_validation = false;
     oc->fit = fit_dataset(oc->g.index, oc->g.runs, fo);

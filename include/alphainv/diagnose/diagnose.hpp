@@ -88,6 +88,12 @@ struct DiagnoseOptions {
   /// before the output-error fit; needs an α-model and sine runs under a P law. false: the
   /// output-error fit alone, from equation-error or scanned starts.
   bool reidentify = true;
+
+  /// Throws alphainv::Error naming the field (e.g. "significance", "candidates[2]") when a value
+  /// is out of range: max_effects, max_fit_runs and max_residuals_per_run ≥ 1, fit_window_s
+  /// finite ≥ 0, significance in [0, 1), candidates known kinds without repeats,
+  /// simulation.loop_period_s finite ≥ 0. diagnose() calls it and reports a refusal in its result.
+  void validate() const;
 };
 
 /// One candidate of one round.
@@ -138,10 +144,25 @@ struct DiagnoseRound {
   double error_after = std::numeric_limits<double>::quiet_NaN();
 };
 
-/// What diagnose() found.
+/// Why diagnose() stopped (like Ceres' TerminationType).
+enum class DiagnoseTermination {
+  kNoneNamed,       ///< usable: the last round named `none` (the model is left as it was then)
+  kMaxEffects,      ///< usable: DiagnoseOptions::max_effects effects named
+  kInvalidOptions,  ///< not usable: DiagnoseOptions::validate() refused them (message: the field)
+  kInvalidInput,    ///< not usable: no runs, or a run shorter than 50 samples (message: which)
+  kFailure,         ///< not usable: the model without a new effect could not be fitted
+};
+
+/// "none named", "max effects", "invalid options", "invalid input", "failure".
+const char* termination_name(DiagnoseTermination termination);
+
+/// What diagnose() found. Like Ceres' Solver::Summary: whether it is usable (`ok`), why it
+/// stopped (`termination`, `message`), the error before and after, the rounds, the time, and a
+/// one-line and a multi-line report (report.md: diagnose_report.hpp).
 struct DiagnoseResult {
-  bool ok = false;
-  std::string message;
+  bool ok = false;       ///< usable: the rounds ran (an effect named or `none`)
+  std::string message;   ///< why not usable; empty when ok
+  DiagnoseTermination termination = DiagnoseTermination::kFailure;
   std::vector<DiagnoseRound> rounds;
   std::vector<EffectKind> effects_named;  ///< in order
   Effects effects;                         ///< the final model's effects
@@ -154,9 +175,19 @@ struct DiagnoseResult {
   double error_after = std::numeric_limits<double>::quiet_NaN();
   std::vector<std::size_t> fit_runs;  ///< indices of the runs used to fit and score
   double seconds = 0.0;               ///< wall time
+
+  /// One line: the effects named (or none) and the RMS before → after over all runs, e.g.
+  /// "offset_torque; RMS of theta - theta_sim 0.01199 -> 0.003536 (10 runs, 6.2 s)"; when not
+  /// usable, "not usable (invalid input): run a.csv has fewer than 50 samples".
+  std::string brief_report() const;
+  /// Several lines: usable, termination, runs, the error before and after, the effects named
+  /// with their parameters, every round's candidates (score, folds, RMS after, note), and where
+  /// the residual concentrates before and after.
+  std::string full_report() const;
 };
 
-/// Runs the workflow (file comment).
+/// Runs the workflow (file comment). Never throws: options that validate() refuses, runs too
+/// short and a failed fit are said in the result (ok, termination, message).
 DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs, const DiagnoseOptions& options = {});
 
 /// The model `base` with its α-model replaced by `alpha` (when given), then the effects `e` and
@@ -180,7 +211,8 @@ std::vector<DiagnoseRun> diagnose_runs(const Dataset& dataset, const std::vector
                                        const DatasetFit& fit);
 
 /// Fits the α-invariant model to the dataset (fit_dataset() without validation; `fit_options`
-/// as given), then diagnoses it with the fit's simulation mode. `fit_out` receives the fit.
+/// as given), then diagnoses it with the fit's simulation mode. `fit_out` receives the fit (not
+/// made when `options` are invalid: the result says which field).
 DiagnoseResult diagnose_dataset(const Dataset& dataset, const std::vector<RunData>& data,
                                 DiagnoseOptions options, const FitPipelineOptions& fit_options = {},
                                 DatasetFit* fit_out = nullptr);

@@ -1,0 +1,172 @@
+#include "alphainv/diagnose/diagnose_report.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <sstream>
+
+namespace alphainv {
+
+namespace {
+
+/// x with printf format `f`; "–" for NaN, "∞"/"−∞" for infinities.
+std::string fmt(double x, const char* f = "%.4g") {
+  if (std::isnan(x)) return "–";
+  if (std::isinf(x)) return x > 0 ? "∞" : "−∞";
+  char b[64];
+  std::snprintf(b, sizeof b, f, x);
+  return b;
+}
+
+/// The effects named, joined by ", "; "none" when there are none.
+std::string named_text(const std::vector<EffectKind>& named) {
+  std::string s;
+  for (EffectKind k : named) s += (s.empty() ? "" : ", ") + std::string(effect_name(k));
+  return s.empty() ? std::string("none") : s;
+}
+
+/// `s` padded with spaces to `width` characters (UTF-8: "–" and "∞" count one), then a space.
+std::string column(const std::string& s, std::size_t width) {
+  std::size_t chars = 0;
+  for (unsigned char ch : s) chars += (ch & 0xC0) != 0x80;
+  return s + std::string(chars < width ? width - chars : 0, ' ') + " ";
+}
+
+/// A line of full_report()'s candidate table: name, score, folds, RMS after, then the note.
+std::string table_line(const std::string& name, const std::string& score, const std::string& fold1,
+                       const std::string& fold2, const std::string& after, const std::string& note) {
+  return "  " + column(name, 34) + column(score, 11) + column(fold1, 11) + column(fold2, 11) +
+         column(after, 11) + note + "\n";
+}
+
+std::string candidate_line(const std::string& name, const CandidateScore& c,
+                           const std::string& note) {
+  return table_line(name, fmt(c.score), fmt(c.fold_scores[0]), fmt(c.fold_scores[1]),
+                    fmt(c.error_after), note);
+}
+
+/// run_rms[i], NaN when the location has none for run i.
+double run_rms_at(const ResidualLocation& loc, std::size_t i) {
+  return i < loc.run_rms.size() ? loc.run_rms[i] : std::numeric_limits<double>::quiet_NaN();
+}
+
+}  // namespace
+
+const char* termination_name(DiagnoseTermination termination) {
+  switch (termination) {
+    case DiagnoseTermination::kNoneNamed: return "none named";
+    case DiagnoseTermination::kMaxEffects: return "max effects";
+    case DiagnoseTermination::kInvalidOptions: return "invalid options";
+    case DiagnoseTermination::kInvalidInput: return "invalid input";
+    case DiagnoseTermination::kFailure: return "failure";
+  }
+  return "failure";
+}
+
+std::string effect_parameters_text(const Effects& e, EffectKind kind) {
+  std::string s;
+  for (const auto& par : effect_parameters(kind)) {
+    s += (s.empty() ? "" : ", ") + std::string(par.name) + " = " + fmt(e.*(par.member)) + " " +
+         par.unit;
+  }
+  return s.empty() ? "–" : s;
+}
+
+std::string DiagnoseResult::brief_report() const {
+  if (!ok) return std::string("not usable (") + termination_name(termination) + "): " + message;
+  char b[160];
+  std::snprintf(b, sizeof b, "; RMS of theta - theta_sim %s -> %s (%zu runs, %.1f s)",
+                fmt(error_before).c_str(), fmt(error_after).c_str(), before.run_rms.size(),
+                seconds);
+  return named_text(effects_named) + b;
+}
+
+std::string DiagnoseResult::full_report() const {
+  std::ostringstream s;
+  s << "Diagnose report: " << (ok ? "usable" : "not usable") << "\n"
+    << "  termination: " << termination_name(termination) << "\n";
+  if (!message.empty()) s << "  message: " << message << "\n";
+  s << "  runs: " << before.run_rms.size() << " (" << fit_runs.size() << " to fit and score), "
+    << fmt(seconds, "%.1f") << " s\n"
+    << "  RMS of θ − θ_sim over all runs: " << fmt(error_before) << " → " << fmt(error_after);
+  if (error_before > 0) s << " (" << fmt(100.0 * (1.0 - error_after / error_before), "%.1f") << " % less)";
+  s << "\n  effects named: " << named_text(effects_named) << "\n";
+  for (EffectKind k : effects_named)
+    s << "    " << effect_name(k) << ": " << effect_parameters_text(effects, k) << "\n";
+  s << "  α-model: "
+    << (alpha ? "re-identified from the sine runs with the effects" : "the runs' own") << "\n";
+  for (std::size_t round = 0; round < rounds.size(); ++round) {
+    const DiagnoseRound& rd = rounds[round];
+    s << "Round " << round + 1 << ": " << effect_name(rd.named) << " (RMS " << fmt(rd.error_before)
+      << " → " << fmt(rd.error_after) << ")\n"
+      << table_line("effect (* named)", "score (CV)", "fold 1", "fold 2", "RMS after",
+                    "parameters; note");
+    for (const CandidateScore& c : rd.candidates) {
+      const std::string params = c.ok ? effect_parameters_text(c.effects, c.effect) : "–";
+      s << candidate_line(std::string(effect_name(c.effect)) + (c.effect == rd.named ? " *" : ""),
+                          c, params + (c.message.empty() ? "" : "; " + c.message));
+    }
+    if (rd.none_at_winner_breakpoints) {
+      s << candidate_line("none at the winner's breakpoints", *rd.none_at_winner_breakpoints,
+                          "the winner must beat this too");
+    }
+  }
+  s << "Before:\n";
+  for (const auto& f : before.findings) s << "  - " << f << "\n";
+  s << "After:\n";
+  for (const auto& f : after.findings) s << "  - " << f << "\n";
+  return s.str();
+}
+
+std::string diagnose_report_markdown(const DiagnoseResult& r, const std::vector<DiagnoseRun>& runs,
+                                     const std::string& dataset, const std::string& model_source) {
+  std::ostringstream s;
+  s << "# omni_fit diagnose report\n\nDataset: `" << dataset << "` (" << runs.size()
+    << " runs; model: " << model_source << "). Candidates fitted and scored on "
+    << r.fit_runs.size() << " runs; wall time " << fmt(r.seconds, "%.1f") << " s.\n\n";
+  s << "## Where the model was wrong (before)\n\n";
+  for (const auto& f : r.before.findings) s << "- " << f << "\n";
+  s << "\n## Candidates\n\nEach candidate effect was searched with the α-model re-identified "
+       "from the sine runs with the effect in the plant input (when the model has an α-model and "
+       "the dataset sine runs), then fitted by output error together with the α-model's "
+       "coefficient factors, and scored by 2-fold cross-validation (fitted on one half of each "
+       "fit window, RMS error on the other half). An effect is named only when its score is at "
+       "least 10 % below that of `none` in both folds, the error over all runs drops by 5 % or "
+       "more, and it also beats `none` refitted at its α-model's breakpoints. See "
+       "docs/diagnose.md.\n\n";
+  for (std::size_t round = 0; round < r.rounds.size(); ++round) {
+    const DiagnoseRound& rd = r.rounds[round];
+    s << "### Round " << round + 1 << ": " << effect_name(rd.named) << " (RMS error "
+      << fmt(rd.error_before) << " → " << fmt(rd.error_after) << ")\n\n"
+      << "| effect | score (CV RMS) | fold 1 | fold 2 | RMS after, all runs | parameters | note |\n"
+         "|---|---|---|---|---|---|---|\n";
+    for (const auto& c : rd.candidates) {
+      s << "| " << (c.effect == rd.named ? "**" + std::string(effect_name(c.effect)) + "**"
+                                         : std::string(effect_name(c.effect)))
+        << " | " << fmt(c.score) << " | " << fmt(c.fold_scores[0]) << " | "
+        << fmt(c.fold_scores[1]) << " | " << fmt(c.error_after) << " | "
+        << (c.ok ? effect_parameters_text(c.effects, c.effect) : "–") << " | " << c.message << " |\n";
+    }
+    if (rd.none_at_winner_breakpoints) {
+      const CandidateScore& t = *rd.none_at_winner_breakpoints;
+      s << "| none at the winner's breakpoints | " << fmt(t.score) << " | " << fmt(t.fold_scores[0])
+        << " | " << fmt(t.fold_scores[1]) << " | " << fmt(t.error_after)
+        << " | – | the winner must beat this too |\n";
+    }
+    s << "\n";
+  }
+  s << "## The gap before and after\n\nRMS of θ − θ_sim over all runs: **" << fmt(r.error_before)
+    << " → " << fmt(r.error_after) << "**";
+  if (r.error_before > 0) s << " (" << fmt(100.0 * (1.0 - r.error_after / r.error_before), "%.1f") << " % less)";
+  s << ".\n\n| run | RMS before | RMS after | change |\n|---|---|---|---|\n";
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    const double b = run_rms_at(r.before, i), a = run_rms_at(r.after, i);
+    s << "| " << runs[i].name << " | " << fmt(b) << " | " << fmt(a) << " | "
+      << (b > 0 ? fmt(100.0 * (a / b - 1.0), "%+.1f") + " %" : "–") << " |\n";
+  }
+  s << "\n## Where the model is wrong now (after)\n\n";
+  for (const auto& f : r.after.findings) s << "- " << f << "\n";
+  return s.str();
+}
+
+}  // namespace alphainv
