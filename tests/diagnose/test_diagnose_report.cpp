@@ -133,7 +133,7 @@ TEST(DiagnoseReport, ReportsOfARealDiagnosis) {
   hidden.offset_v = 0.02;
   const GeneratedDataset g = test::one_pose_dataset(hidden, 4);
   FitPipelineOptions fo;
-  fo.validate = false;
+  fo.run_validation = false;
   const DatasetFit fit = fit_dataset(g.index, g.runs, fo);
   const std::vector<DiagnoseRun> runs = diagnose_runs(g.index, g.runs, fit);
   DiagnoseOptions opt;
