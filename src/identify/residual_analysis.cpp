@@ -30,6 +30,20 @@ std::string lag_ranges(const std::vector<int>& lags) {
   return out;
 }
 
+/// The figures from the sums (NaN where they are undefined).
+FitFigures finish(FitFigures f) {
+  if (f.n == 0) {
+    f.rms = f.max_abs = f.fit_percent = f.relative_error = kNaN;
+    return f;
+  }
+  f.rms = std::sqrt(f.sum_squared_error / static_cast<double>(f.n));
+  f.fit_percent = f.sum_squared_deviation > 0.0
+                      ? 100.0 * (1.0 - std::sqrt(f.sum_squared_error / f.sum_squared_deviation))
+                      : kNaN;
+  f.relative_error = f.sum_squared > 0.0 ? std::sqrt(f.sum_squared_error / f.sum_squared) : kNaN;
+  return f;
+}
+
 }  // namespace
 
 FitFigures fit_figures(const std::vector<double>& y, const std::vector<double>& y_hat,
@@ -42,10 +56,7 @@ FitFigures fit_figures(const std::vector<double>& y, const std::vector<double>& 
     sum_y += y[k];
     ++f.n;
   }
-  if (f.n == 0) {
-    f.rms = f.max_abs = f.fit_percent = f.relative_error = kNaN;
-    return f;
-  }
+  if (f.n == 0) return finish(f);
   const double mean = sum_y / static_cast<double>(f.n);
   for (std::size_t k = begin; k < end; ++k) {
     if (!std::isfinite(y[k]) || !std::isfinite(y_hat[k])) continue;
@@ -55,12 +66,7 @@ FitFigures fit_figures(const std::vector<double>& y, const std::vector<double>& 
     f.sum_squared += y[k] * y[k];
     f.max_abs = std::max(f.max_abs, std::abs(e));
   }
-  f.rms = std::sqrt(f.sum_squared_error / static_cast<double>(f.n));
-  f.fit_percent = f.sum_squared_deviation > 0.0
-                      ? 100.0 * (1.0 - std::sqrt(f.sum_squared_error / f.sum_squared_deviation))
-                      : kNaN;
-  f.relative_error = f.sum_squared > 0.0 ? std::sqrt(f.sum_squared_error / f.sum_squared) : kNaN;
-  return f;
+  return finish(f);
 }
 
 FitFigures pooled_fit_figures(const std::vector<FitFigures>& runs) {
@@ -73,16 +79,7 @@ FitFigures pooled_fit_figures(const std::vector<FitFigures>& runs) {
     p.sum_squared += r.sum_squared;
     p.max_abs = std::max(p.max_abs, r.max_abs);
   }
-  if (p.n == 0) {
-    p.rms = p.max_abs = p.fit_percent = p.relative_error = kNaN;
-    return p;
-  }
-  p.rms = std::sqrt(p.sum_squared_error / static_cast<double>(p.n));
-  p.fit_percent = p.sum_squared_deviation > 0.0
-                      ? 100.0 * (1.0 - std::sqrt(p.sum_squared_error / p.sum_squared_deviation))
-                      : kNaN;
-  p.relative_error = p.sum_squared > 0.0 ? std::sqrt(p.sum_squared_error / p.sum_squared) : kNaN;
-  return p;
+  return finish(p);
 }
 
 double normal_quantile(double p) {

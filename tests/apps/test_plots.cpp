@@ -13,6 +13,7 @@
 #include "alphainv/model/inertia_model.hpp"
 #include "alphainv/simulate/reference.hpp"
 #include "plots.hpp"
+#include "support/model_dataset.hpp"
 
 namespace omni_fit {
 namespace {
@@ -25,39 +26,16 @@ namespace fs = std::filesystem;
 void make_dataset(const std::vector<std::pair<double, double>>& poses,
                   const std::vector<double>& freqs, bool square, Dataset& ds,
                   std::vector<RunData>& data) {
-  const LinearModel lin = paper_linear_model();
-  ds.controller.kp = 2.0;
   ds.position_unit = "rad";
   ds.command_unit = "V";
-  for (const auto& [g1, g2] : poses) {
-    JointModelAtPose m;
-    m.inertia = lin.inertia.inertia(deg_to_rad(g1), deg_to_rad(g2));
-    m.c_linear = lin.damping(m.inertia);
-    m.beta_tilde_linear = lin.beta_tilde(m.inertia);
-    m.alpha = paper_alpha_model();
-    auto add = [&](const Reference& ref, const std::string& kind, double f, double theta0) {
-      const auto times = uniform_times(6.0, 1e-3);
-      const SimulationResult s = simulate(m, Controller{}, ref, times, {theta0, 0.0, 0.0});
-      ASSERT_TRUE(s.ok);
-      RunData d;
-      d.t = times;
-      for (double t : times) d.r.push_back(ref.at(t).r);
-      d.theta = s.theta;
-      d.v = s.v;
-      data.push_back(d);
-      RunInfo run;
-      run.file = "runs/" + kind + "_" + std::to_string(data.size()) + ".csv";
-      run.kind = kind;
-      run.freq_hz = f;
-      run.amplitude_rad = 0.07;
-      run.gamma1_deg = g1;
-      run.gamma2_deg = g2;
-      run.controller = ds.controller;
-      ds.runs.push_back(run);
-    };
-    for (double f : freqs) add(SineReference(0.07, f), "sine", f, 0.0);
-    if (square) add(SquareReference(0.07, 0.25), "square", 0.25, -0.07);
-  }
+  test::ModelDatasetPlan plan;
+  plan.poses_deg = poses;
+  plan.freqs_hz = freqs;
+  plan.square = square;
+  plan.duration_s = 6.0;
+  plan.file_prefix = "runs/";
+  plan.separator = "_";
+  test::append_model_runs(plan, ds, data);
 }
 
 /// The numeric rows of a .dat file's block `index` (blocks are separated by two blank lines).

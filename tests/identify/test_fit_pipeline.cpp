@@ -11,6 +11,7 @@
 #include "alphainv/model/inertia_model.hpp"
 #include "alphainv/simulate/reference.hpp"
 #include "support/error_of.hpp"
+#include "support/model_dataset.hpp"
 
 namespace alphainv {
 namespace {
@@ -22,38 +23,10 @@ using test::error_of;
 /// paper_linear_model(), paper_alpha_model().
 void make_dataset(const std::vector<std::pair<double, double>>& poses, Dataset& ds,
                   std::vector<RunData>& data, const Effects& effects = {}) {
-  const LinearModel lin = paper_linear_model();
-  ds.controller.kp = 2.0;
-  for (const auto& [g1, g2] : poses) {
-    JointModelAtPose m;
-    m.inertia = lin.inertia.inertia(deg_to_rad(g1), deg_to_rad(g2));
-    m.c_linear = lin.damping(m.inertia);
-    m.beta_tilde_linear = lin.beta_tilde(m.inertia);
-    m.alpha = paper_alpha_model();
-    m.effects = effects;
-    auto add = [&](const Reference& ref, const std::string& kind, double f, double theta0) {
-      const auto times = uniform_times(8.0, 1e-3);
-      const SimulationResult s = simulate(m, Controller{}, ref, times, {theta0, 0.0, 0.0});
-      ASSERT_TRUE(s.ok);
-      RunData d;
-      d.t = times;
-      for (double t : times) d.r.push_back(ref.at(t).r);
-      d.theta = s.theta;
-      d.v = s.v;
-      data.push_back(d);
-      RunInfo run;
-      run.file = kind + std::to_string(data.size()) + ".csv";
-      run.kind = kind;
-      run.freq_hz = f;
-      run.amplitude_rad = 0.07;
-      run.gamma1_deg = g1;
-      run.gamma2_deg = g2;
-      run.controller = ds.controller;
-      ds.runs.push_back(run);
-    };
-    for (double f : {1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0, 7.0}) add(SineReference(0.07, f), "sine", f, 0.0);
-    add(SquareReference(0.07, 0.25), "square", 0.25, -0.07);
-  }
+  test::ModelDatasetPlan plan;
+  plan.poses_deg = poses;
+  plan.effects = effects;
+  test::append_model_runs(plan, ds, data);
 }
 
 TEST(FitPipeline, RecoversModelFromItsOwnSimulation) {
