@@ -5,17 +5,23 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <functional>
+#include <optional>
+#include <string_view>
 
 #include <nlohmann/json.hpp>
 
 #include "alphainv/data/dataset.hpp"
 #include "alphainv/diagnose/effect_refinement.hpp"
 #include "alphainv/error.hpp"
+#include "alphainv/identify/dataset_split.hpp"
 #include "alphainv/identify/fit_pipeline.hpp"
 #include "alphainv/identify/fit_report.hpp"
+#include "alphainv/identify/validation.hpp"
 #include "alphainv/data/model_file.hpp"
 #include "plots.hpp"
 #include "progress.hpp"
+#include "validate_command.hpp"
 
 namespace omni_fit {
 
@@ -57,6 +63,30 @@ void read_known_effects(const FitCommandOptions& opt, Effects& effects, std::str
     apply_effect_spec(spec, effects);
     source += std::string(source.empty() ? "" : ", ") + "`--effect " + spec + "`";
   }
+}
+
+/// The datasets in `dirs` read and combined (combine_datasets). Throws alphainv::Error.
+DatasetWithRuns read_datasets(const std::vector<std::string>& dirs,
+                              const std::function<void(std::string_view, std::size_t,
+                                                       std::size_t)>& show) {
+  std::vector<DatasetWithRuns> parts;
+  for (const std::string& dir : dirs) {
+    DatasetWithRuns p;
+    p.dataset = read_dataset_index(dir);
+    for (std::size_t i = 0; i < p.dataset.runs.size(); ++i) {
+      if (show) show("loading runs", i, p.dataset.runs.size());
+      p.data.push_back(read_run(p.dataset, i));
+    }
+    parts.push_back(std::move(p));
+  }
+  return combine_datasets(parts);
+}
+
+/// The folders joined for messages: "a", "a + b".
+std::string joined(const std::vector<std::string>& dirs) {
+  std::string out;
+  for (const std::string& d : dirs) out += (out.empty() ? "" : " + ") + d;
+  return out;
 }
 
 }  // namespace
@@ -103,14 +133,27 @@ int run_fit(const FitCommandOptions& opt) {
   std::string effects_source;
   popt.threads = opt.threads;
   popt.n_breakpoints = opt.n_breakpoints;
+  DatasetWithRuns held_out;  // --holdout and --validate-on: validated on, not fitted on
+  std::string held_out_label;
   try {
     read_known_effects(opt, popt.effects, effects_source);
     popt.validate();
-    ds = read_dataset_index(opt.dataset_dir);
-    for (std::size_t i = 0; i < ds.runs.size(); ++i) {
-      show("loading runs", i, ds.runs.size());
-      data.push_back(read_run(ds, i));
+    DatasetWithRuns all = read_datasets(opt.dataset_dirs, show);
+    std::vector<DatasetWithRuns> held;
+    if (opt.holdout > 0) {
+      HoldoutSplit split = holdout_every_kth_run_per_pose(all, opt.holdout);
+      all = std::move(split.fit);
+      held.push_back(std::move(split.held_out));
+      held_out_label = "every " + std::to_string(opt.holdout) + "th run per pose of " +
+                       joined(opt.dataset_dirs);
     }
+    if (!opt.validate_on.empty()) {
+      held.push_back(read_datasets(opt.validate_on, show));
+      held_out_label += (held_out_label.empty() ? "" : " + ") + joined(opt.validate_on);
+    }
+    if (!held.empty()) held_out = combine_datasets(held);
+    ds = std::move(all.dataset);
+    data = std::move(all.data);
   } catch (const Error& e) {
     progress.clear();
     std::fprintf(stderr, "omni_fit fit: %s\n", e.what());
@@ -143,6 +186,15 @@ int run_fit(const FitCommandOptions& opt) {
     return 2;
   }
 
+  // Validation on the held-out runs (validation.hpp), as `omni_fit validate` does.
+  std::optional<ValidationResult> validation;
+  if (!held_out.dataset.runs.empty() && fit.usable()) {
+    ValidationOptions vo;
+    vo.threads = opt.threads;
+    vo.use_alpha = model.has_alpha_model;
+    if (progress.enabled()) show("validating held-out runs", 0, 1);
+    validation = validate_model(model, held_out.dataset, held_out.data, vo);
+  }
   const fs::path out(opt.out_dir);
   try {
     fs::create_directories(out);
@@ -162,6 +214,10 @@ int run_fit(const FitCommandOptions& opt) {
     report.dataset_hash = model.dataset_hash;
     report.effects_source = effects_source;
     report.appendix_markdown = figures;
+    if (validation) {
+      report.appendix_markdown += "\n" + validation_markdown((out / "model.json").string(),
+                                                             held_out_label, *validation, "##");
+    }
     write_text_atomic(out / "report.md", fit_report_markdown(ds, fit, report));
   } catch (const std::exception& e) {
     std::fprintf(stderr, "omni_fit fit: writing %s: %s\n", out.string().c_str(), e.what());
@@ -178,6 +234,9 @@ int run_fit(const FitCommandOptions& opt) {
     j["alpha"] = errors_json(fit.alpha_errors);
     j["step_error_ratio"] = num(ratio);
     j["model"] = (out / "model.json").string();
+    if (validation) {
+      j["validation"] = validation_json((out / "model.json").string(), held_out_label, *validation);
+    }
     std::printf("%s\n", j.dump().c_str());
   } else if (!opt.quiet) {
     std::printf("omni_fit fit: %zu runs, %zu poses; model %s, report %s\n", ds.runs.size(),
@@ -190,10 +249,12 @@ int run_fit(const FitCommandOptions& opt) {
                 report_number(fit.alpha_errors.phase_p90_deg).c_str(),
                 report_number(ratio).c_str());
     for (const auto& n : fit.notes) std::printf("  note: %s\n", n.c_str());
+    if (validation) std::printf("  held out (%s): %s\n", held_out_label.c_str(),
+                                validation->brief_report().c_str());
   }
   if (!fit.usable() && !opt.quiet) {
     std::fprintf(stderr, "omni_fit fit: no model could be identified from %s (see report.md)\n",
-                 opt.dataset_dir.c_str());
+                 joined(opt.dataset_dirs).c_str());
   }
   return fit.usable() ? 0 : 3;
 }

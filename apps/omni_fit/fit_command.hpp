@@ -9,7 +9,8 @@
 namespace omni_fit {
 
 struct FitCommandOptions {
-  std::string dataset_dir;
+  /// The dataset folders, fitted together (several recordings of one joint).
+  std::vector<std::string> dataset_dirs;
   std::string out_dir;
   bool json = false;
   bool quiet = false;
@@ -22,6 +23,10 @@ struct FitCommandOptions {
   std::vector<std::string> effect_specs;
   /// --refine-effects: refine the known effects' parameters on all runs (effect_refinement.hpp).
   bool refine_effects = false;
+  /// --validate-on DIR: datasets the model is validated on (not fitted on), repeatable.
+  std::vector<std::string> validate_on;
+  /// --holdout K: every K-th run per pose held out of the fit and validated on (0: none).
+  std::size_t holdout = 0;
 };
 
 /// `omni_fit fit`: returns the process exit code (0 ok, 2 bad input, 3 fit failure).

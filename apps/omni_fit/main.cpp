@@ -19,7 +19,8 @@ int main(int argc, char** argv) {
   CLI::App* demo = omni_fit::add_demo_subcommand(app, demo_options);
   auto* fitc = app.add_subcommand("fit", "identify the linear, inertia and alpha-invariant models of a dataset");
   omni_fit::FitCommandOptions fo;
-  fitc->add_option("dataset", fo.dataset_dir, "dataset folder (alphainv-dataset/1)")->required();
+  fitc->add_option("dataset", fo.dataset_dirs,
+                   "dataset folder(s) (alphainv-dataset/1), fitted together")->required();
   fitc->add_option("-o,--out", fo.out_dir, "output folder for model.json and report.md")->required();
   fitc->add_flag("--json", fo.json, "print one JSON object with the headline figures to stdout");
   fitc->add_flag("-q,--quiet", fo.quiet, "print nothing but errors");
@@ -40,7 +41,16 @@ int main(int argc, char** argv) {
                  "refine the known effects' parameters on all runs: each trial a whole fit, "
                  "scored by the alpha-model's squared position error over every simulated run "
                  "(Nelder-Mead, at most 40 fits)");
+  fitc->add_option("--validate-on", fo.validate_on,
+                   "validate the model on this dataset's runs (not fitted on), as `omni_fit "
+                   "validate` does: figures in report.md and --json \"validation\"; repeatable")
+      ->allow_extra_args(false);
+  fitc->add_option("--holdout", fo.holdout,
+                   "hold every K-th run of each pose out of the fit and validate on them")
+      ->type_name("K")->check(CLI::Range(2, 1000000));
   fitc->footer("Examples:\n  omni_fit fit data/omni_yaw_sim -o out/fit --json\n"
+               "  omni_fit fit data/omni_yaw_sim -o out/fit-ho --holdout 3\n"
+               "  omni_fit fit part1/ part2/ -o out/fit12 --validate-on part3/\n"
                "  omni_fit fit data/omni_yaw_sim -o out/fit-fx --effect coulomb_friction:coulomb_v=0.004\n"
                "  omni_fit fit run_dir -o out/fit-fx --effects-from out/diag/model.json\n"
                "  omni_fit fit run_dir -o out/fit-fx --effects-from out/diag/model.json --refine-effects\n"

@@ -553,10 +553,9 @@ class Plotter {
       return false;
     }
     const Controller ctl = ds_.runs[i].controller;
-    const SampledReference ref(d.t, d.r);
     const InitialState x0 = initial_state_of(d);  // as the validation does
     m.use_alpha = false;
-    const SimulationResult l = simulate(m, ctl, ref, d.t, x0, fit_.simulation);
+    const SimulationResult l = simulate_recorded_run(m, ctl, d, x0, fit_.simulation);
     if (!l.ok) {
       why = "linear simulation failed: " + l.message;
       return false;
@@ -565,7 +564,7 @@ class Plotter {
     alp.assign(d.size(), kNaN);
     if (fit_.alpha.ok) {
       m.use_alpha = true;
-      const SimulationResult a = simulate(m, ctl, ref, d.t, x0, fit_.simulation);
+      const SimulationResult a = simulate_recorded_run(m, ctl, d, x0, fit_.simulation);
       if (a.ok) alp = a.theta;
     }
     return true;

@@ -48,6 +48,10 @@ CLI::App* add_simulate_subcommand(CLI::App& app, SimulateCommandOptions& so) {
       "proportional gain [command unit/position unit] (default: the model's)");
   simc->add_flag("--linear", so.linear,
                  "the global linear model instead of the alpha-invariant model");
+  simc->add_option("--disturbance", so.disturbance,
+                   "a run CSV (t, r, theta, v and a disturbance_v and/or torque_enable column, "
+                   "e.g. a recorded run) whose known inputs enter the plant, held between its "
+                   "samples; the simulated run records them");
   simc->add_option("-o,--out", so.out,
                    "run CSV (written atomically), or a folder (ends with / or exists) for a whole "
                    "dataset; default: the CSV on stdout");
@@ -84,6 +88,24 @@ int run_simulate(const SimulateCommandOptions& o) {
   if (o.kp && !(*o.kp > 0.0)) return usage("--kp: expected a number > 0");
   run_opt.amplitude_rad = o.amplitude_rad;
   run_opt.kp = o.kp;
+  RunData known_inputs;
+  if (!o.disturbance.empty()) {
+    try {
+      known_inputs = read_run_csv(o.disturbance);
+    } catch (const Error& e) {
+      std::fprintf(stderr, "omni_fit simulate: --disturbance: %s\n", e.what());
+      return 2;
+    }
+    if (known_inputs.column("disturbance_v") == nullptr &&
+        known_inputs.column("torque_enable") == nullptr) {
+      std::fprintf(stderr,
+                   "omni_fit simulate: --disturbance: %s has neither a disturbance_v nor a "
+                   "torque_enable column\n",
+                   o.disturbance.c_str());
+      return 2;
+    }
+    run_opt.known_inputs = &known_inputs;
+  }
 
   // --- the model --------------------------------------------------------------------------------
   ModelFile model;

@@ -17,6 +17,7 @@ struct SimulateCommandOptions {
   std::string rate = "1kHz";    ///< output sample rate
   std::optional<double> kp;     ///< overrides the model's kp [command unit/position unit]
   bool linear = false;          ///< the global linear model instead of the α-model
+  std::string disturbance;      ///< --disturbance FILE: a run CSV whose known-input columns apply
   std::string out;  ///< run CSV, or a folder (ends with / or exists) for a dataset; empty: stdout
   bool quiet = false;  ///< no summary on stderr
 };

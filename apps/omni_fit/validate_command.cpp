@@ -26,8 +26,10 @@ nlohmann::json figures_json(const FitFigures& f) {
           {"relative_error", apps::json_number(f.relative_error)}};
 }
 
-/// The --json object (the key names are read by other tools: keep them).
-nlohmann::json result_json(const ValidateCommandOptions& o, const ValidationResult& r) {
+}  // namespace
+
+nlohmann::json validation_json(const std::string& model, const std::string& dataset,
+                               const ValidationResult& r) {
   nlohmann::json runs = nlohmann::json::array();
   for (const ValidatedRun& v : r.runs) {
     nlohmann::json j = figures_json(v.position);
@@ -42,8 +44,8 @@ nlohmann::json result_json(const ValidateCommandOptions& o, const ValidationResu
     runs.push_back(j);
   }
   nlohmann::json out = figures_json(r.position);
-  out["model"] = o.model_path;
-  out["dataset"] = o.dataset_dir;
+  out["model"] = model;
+  out["dataset"] = dataset;
   out["runs"] = runs;
   out["samples"] = r.position.n;
   out["command"] = figures_json(r.command);
@@ -53,8 +55,9 @@ nlohmann::json result_json(const ValidateCommandOptions& o, const ValidationResu
   return out;
 }
 
-std::string report_markdown(const ValidateCommandOptions& o, const ValidationResult& r) {
-  std::string md = "# Validation of `" + o.model_path + "` on `" + o.dataset_dir + "`\n\n" +
+std::string validation_markdown(const std::string& model, const std::string& dataset,
+                                const ValidationResult& r, const std::string& heading) {
+  std::string md = heading + " Validation of `" + model + "` on `" + dataset + "`\n\n" +
                    r.brief_report() + "\n\n";
   if (!r.model_note.empty()) md += "Model: " + r.model_note + ".\n\n";
   md += "Pooled over all samples: θ RMS " + apps::table_cell(r.position.rms) + ", max " +
@@ -79,8 +82,6 @@ std::string report_markdown(const ValidateCommandOptions& o, const ValidationRes
   return md;
 }
 
-}  // namespace
-
 CLI::App* add_validate_subcommand(CLI::App& app, ValidateCommandOptions& o) {
   auto* c = app.add_subcommand(
       "validate", "how well a model.json predicts recorded runs (compare and resid, per run and pooled)");
@@ -92,6 +93,9 @@ CLI::App* add_validate_subcommand(CLI::App& app, ValidateCommandOptions& o) {
                 "fit the initial state on the first N samples of each run (then left out of the "
                 "figures); default: the measured state");
   c->add_flag("--linear", o.linear, "validate the global linear model instead of the alpha-model");
+  c->add_flag("--ignore-known-inputs", o.ignore_known_inputs,
+              "do not apply the runs' disturbance_v and torque_enable columns (to measure what "
+              "they explain); default: applied to the plant");
   c->add_option("--max-lag", o.max_lag, "lags of the residual tests")->capture_default_str()
       ->check(CLI::Range(1, 1000));
   c->add_option("--threads", o.threads, "threads (default: all cores)");
@@ -117,15 +121,16 @@ int run_validate(const ValidateCommandOptions& o) {
   ValidationOptions vo;
   vo.initial_samples = o.initial_samples;
   vo.use_alpha = !o.linear;
+  vo.use_known_inputs = !o.ignore_known_inputs;
   vo.residual.max_lag = o.max_lag;
   vo.threads = o.threads;
   const ValidationResult r = validate_model(model, ds, data, vo);
-  const nlohmann::json j = result_json(o, r);
+  const nlohmann::json j = validation_json(o.model_path, o.dataset_dir, r);
   if (!o.out_dir.empty()) {
     try {
       std::filesystem::create_directories(o.out_dir);
       common::write_file_atomically(std::filesystem::path(o.out_dir) / "report.md",
-                                    report_markdown(o, r));
+                                    validation_markdown(o.model_path, o.dataset_dir, r, "#"));
       common::write_file_atomically(std::filesystem::path(o.out_dir) / "validation.json",
                                     j.dump(2) + "\n");
     } catch (const std::exception& e) {

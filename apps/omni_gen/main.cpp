@@ -5,6 +5,7 @@
 // Every error prints one line on stderr naming the option; exit codes as the other apps
 // (apps/common/exit_code.hpp): 1 a bad command line, 2 a rejected value or an unwritable output.
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <charconv>
 #include <chrono>
 #include <cmath>
@@ -38,6 +39,7 @@ std::string option_for_field(const std::string& field) {
   if (f == "measurement.noise_std_rad") return "--noise-std";
   if (f == "measurement.quantisation_rad") return "--quantisation";
   if (f == "seed") return "--seed";
+  if (f.rfind("disturbance_pulses.", 0) == 0) return "--disturbance-pulses";
   return field;
 }
 
@@ -75,7 +77,27 @@ struct PaperArgs {
   bool no_coulomb = false;
   bool truth_columns = false;
   int pose = -1;  // -1: the paper's poses; K: only sine pose K (sine and square runs there)
+  std::string disturbance_pulses;  // "AMPLITUDE_V[,WIDTH_S[,PERIOD_S]]"; empty: none
 };
+
+/// Parses --disturbance-pulses AMPLITUDE_V[,WIDTH_S[,PERIOD_S]] into `out`; returns an error text.
+std::string parse_pulses(const std::string& text, DisturbancePulses& out) {
+  double* fields[] = {&out.amplitude_v, &out.width_s, &out.period_s};
+  std::size_t begin = 0;
+  for (std::size_t i = 0; begin <= text.size(); ++i) {
+    const std::size_t end = std::min(text.find(',', begin), text.size());
+    if (i >= 3) return "expected at most 3 numbers, got '" + text + "'";
+    const std::string cell = text.substr(begin, end - begin);
+    char* stop = nullptr;
+    const double x = std::strtod(cell.c_str(), &stop);
+    if (cell.empty() || stop != cell.c_str() + cell.size() || !std::isfinite(x)) {
+      return "expected AMPLITUDE_V[,WIDTH_S[,PERIOD_S]] (numbers), got '" + text + "'";
+    }
+    *fields[i] = x;
+    begin = end + 1;
+  }
+  return {};
+}
 
 int run_paper(const PaperArgs& args, const std::string& cmd) {
   std::uint64_t seed = 0;
@@ -97,6 +119,10 @@ int run_paper(const PaperArgs& args, const std::string& cmd) {
     }
     options.sine_poses = {poses[static_cast<std::size_t>(args.pose)]};
     options.square_poses = options.sine_poses;
+  }
+  if (!args.disturbance_pulses.empty()) {
+    const std::string why = parse_pulses(args.disturbance_pulses, options.disturbance_pulses);
+    if (!why.empty()) return fail("--disturbance-pulses", why);
   }
   Effects& effects = options.plant.effects;
   if (args.no_coulomb) effects.coulomb_v = 0.0;
@@ -215,6 +241,13 @@ int main(int argc, char** argv) {
                    "only pose K of the paper's 9 sine poses, sine and square runs there (10 runs: "
                    "what `omni_fit sweep` diagnoses; seed s uses pose s mod 9)")
       ->type_name("K");
+  paper
+      ->add_option("--disturbance-pulses", args.disturbance_pulses,
+                   "known external disturbance pulses on every run, recorded as its "
+                   "disturbance_v column: +-AMPLITUDE_V [command unit] (alternating), WIDTH_S "
+                   "long (default 0.1), one every PERIOD_S (default 1) from 0.5 s plus a per-run "
+                   "shift; e.g. 0.05 or 0.05,0.1,1")
+      ->type_name("AMPLITUDE_V[,WIDTH_S[,PERIOD_S]]");
   paper->add_flag("--no-coulomb", args.no_coulomb, "turn the bundled Coulomb friction off");
   paper->add_flag("--truth-columns", args.truth_columns,
                   "add the columns theta_true, theta_dot_true, v_eff, alpha_true, c_true, "

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "alphainv/error.hpp"
+#include "alphainv/model/plant_input.hpp"
 
 namespace alphainv::rt {
 namespace {
@@ -209,7 +210,7 @@ TickRecord ControlLoop::tick(double t_s, const device::ReadResult& input, bool d
   // The model's input: the command through its effects (delay, deadzone, saturation).
   v_head_ = (v_head_ + 1) % v_history_.size();
   v_history_[v_head_] = v;
-  const double v_model = amplifier(
+  const double v_model = applied_command(
       config_.effects, v_history_[(v_head_ + v_history_.size() - delay_ticks_) % v_history_.size()]);
 
   // α̂ of the command history (eq. (33)), I (eq. (6)), C and β̃ (eqs. (38)-(42)).
@@ -232,14 +233,14 @@ TickRecord ControlLoop::tick(double t_s, const device::ReadResult& input, bool d
     const double e = std::exp(-c * T);
     const double a = (1.0 - e) / c;
     // u: the command through the effects plus their torque n(θ, θ̇), held over the tick.
-    const double u = v_model + effect_torque(config_.effects, theta_, theta_dot);
+    const double u = v_model + plant_torque(config_.effects, t_s, theta_, theta_dot);
     theta_pred_next_ = theta_ + theta_dot * a + (beta * u / c) * (T - a);
     u_prev_ = u;
     have_pred_ = true;
   } else {
     have_pred_ = false;
   }
-  if (!have_pred_) u_prev_ = v_model + effect_torque(config_.effects, theta_, 0.0);
+  if (!have_pred_) u_prev_ = v_model + plant_torque(config_.effects, t_s, theta_, 0.0);
   have_prev_tick_ = new_report;
   v_prev_ = v;
   c_prev_ = c;

@@ -16,6 +16,9 @@
 #include "alphainv/identify/alpha_fit.hpp"
 #include "alphainv/identify/effect_sine_point.hpp"
 #include "alphainv/identify/output_error.hpp"
+#include "alphainv/model/plant_input.hpp"
+#include "alphainv/simulate/known_inputs.hpp"
+#include "alphainv/simulate/recorded_run.hpp"
 #include "alphainv/simulate/reference.hpp"
 #include "alphainv/identify/time_domain_fit.hpp"
 #include "alphainv/model/detail/field_checks.hpp"
@@ -43,10 +46,9 @@ std::string num(double x, const char* f = "%.3g") { return common::format(f, x);
 SimulationResult simulate_run(const DiagnoseRun& run, const JointModelAtPose& m,
                               const SimulationOptions& so) {
   const RunData& d = *run.data;
-  const SampledReference ref(d.t, d.r);
   InitialState x0 = initial_state_of(d);
   x0.command_history = run.command_history;
-  return simulate(m, run.controller, ref, d.t, x0, so);
+  return simulate_recorded_run(m, run.controller, d, x0, so);
 }
 
 double rms_of(const RunData& d, const std::vector<double>& sim) {
@@ -104,6 +106,7 @@ TorqueResidual torque_residual(const std::vector<DiagnoseRun>& runs,
     const RunData& d = *runs[i].data;
     const SimulationResult& s = sims[i];
     if (!s.ok || s.damping.size() != d.size()) continue;
+    const KnownInputSeries known = KnownInputSeries::of_run(d);
     std::vector<double> dth, ddth;
     local_quadratic_derivatives(d.t, d.theta, 0.01, dth, ddth);
     // Skip the first and last 20 ms (one-sided fits) of each run.
@@ -111,7 +114,8 @@ TorqueResidual torque_residual(const std::vector<DiagnoseRun>& runs,
       if (d.t[k] - d.t.front() < 0.02 || d.t.back() - d.t[k] < 0.02) continue;
       const double bt = s.beta_tilde[k];
       if (!(bt > 0.0)) continue;
-      const double u = amplifier(current, d.v[k]) + effect_torque(current, d.theta[k], dth[k]);
+      const double u =
+          plant_input(current, d.t[k], d.v[k], d.theta[k], dth[k], known.at_sample(k));
       const double n = (ddth[k] + s.damping[k] * dth[k]) / bt - u;
       if (!std::isfinite(n)) continue;
       tr.n_hat.push_back(n);

@@ -3,7 +3,9 @@
 #include <cmath>
 #include <vector>
 
+#include "alphainv/model/plant_input.hpp"
 #include "alphainv/rt/alpha_estimator.hpp"
+#include "alphainv/simulate/known_inputs.hpp"
 #include "alphainv/identify/time_domain_fit.hpp"
 
 namespace alphainv {
@@ -76,21 +78,26 @@ LocalLinearPoint sine_point_with_effects(const RunData& run, IndexRange window, 
   const std::size_t n = window.size();
   const SineFit ft = fit_sine(t, run.theta.data() + window.begin, n, w);
   const SineFit fv = fit_sine(t, run.v.data() + window.begin, n, w);
-  std::vector<double> amp(n);
-  for (std::size_t k = 0; k < n; ++k) amp[k] = amplifier(effects, run.v[window.begin + k]);
+  const KnownInputSeries known = KnownInputSeries::of_run(run);
+  std::vector<double> amp(n);  // e(t)·S(Z(v)) of plant_input.hpp (the delay below)
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::size_t i = window.begin + k;
+    amp[k] = applied_command(effects, run.v[i], known.at_sample(i));
+  }
   const SineFit fa = fit_sine(t, amp.data(), n, w);
   if (!ft.valid || !fv.valid || !fa.valid) return bad;
   // The delay shifts the amplifier's output: a phase −ωτ on its fundamental.
   std::complex<double> u = phasor(fa) * std::polar(1.0, -w * effects.delay_s);
   const bool torque = effects.coulomb_v > 0.0 || effects.offset_v != 0.0 ||
-                      effects.gravity_v != 0.0 || effects.cogging_v != 0.0;
+                      effects.gravity_v != 0.0 || effects.cogging_v != 0.0 ||
+                      known.has_disturbance();
   if (torque) {
     std::vector<double> dth, ddth;
     local_quadratic_derivatives(run.t, run.theta, 0.01, dth, ddth);
     std::vector<double> nt(n);
     for (std::size_t k = 0; k < n; ++k) {
       const std::size_t i = window.begin + k;
-      nt[k] = effect_torque(effects, run.theta[i], dth[i]);
+      nt[k] = plant_torque(effects, run.t[i], run.theta[i], dth[i], known.at_sample(i));
     }
     const SineFit fn = fit_sine(t, nt.data(), n, w);
     if (!fn.valid) return bad;

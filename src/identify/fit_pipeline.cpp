@@ -13,6 +13,7 @@
 #include "alphainv/identify/metrics.hpp"
 #include "alphainv/identify/output_error.hpp"
 #include "alphainv/model/detail/field_checks.hpp"
+#include "alphainv/simulate/known_inputs.hpp"
 #include "alphainv/simulate/reference.hpp"
 #include "common/parallel_for.hpp"
 #include "fit_pipeline_internal.hpp"
@@ -413,12 +414,13 @@ void fit_local_linear_points(const Dataset& dataset, const std::vector<RunData>&
       const double dt_s = (d.t.back() - d.t.front()) / static_cast<double>(d.t.size() - 1);
       if (std::abs(dt_s / fit.loop_period_s - 1.0) > 0.01) ++off_rate_runs;
     }
-    // Known effects: the point against the plant input through them (effect_sine_point.hpp);
-    // gain and phase stay those of θ against r.
-    sp.point = known_effects ? sine_point_with_effects(d, win, f, ctl.kp, fit.loop_period_s,
-                                                       fit.effects)
-                             : local_linear_point(f, a0 * std::sin(phi), a0 * std::cos(phi), ar,
-                                                  ctl.kp, fit.loop_period_s);
+    // Known effects or known inputs (disturbance_v, torque_enable): the point against the plant
+    // input u of plant_input.hpp (effect_sine_point.hpp); gain and phase stay those of θ against r.
+    const bool known_inputs = !KnownInputSeries::of_run(d).empty();
+    sp.point = known_effects || known_inputs
+                   ? sine_point_with_effects(d, win, f, ctl.kp, fit.loop_period_s, fit.effects)
+                   : local_linear_point(f, a0 * std::sin(phi), a0 * std::cos(phi), ar, ctl.kp,
+                                        fit.loop_period_s);
     sp.gain = a0 / ar;
     sp.phase_deg = rad_to_deg(phi);
     fit.sine_points.push_back(sp);
@@ -577,19 +579,15 @@ RunValidation validate_run(const Dataset& dataset, const std::vector<RunData>& d
     rv.message = "no linear model for this run's pose";
     return rv;
   }
-  if (detail::has_torque_off(d)) {
-    rv.message = "torque_enable = 0 in part of the run (free fall): not simulated";
-    return rv;
-  }
+  // The run's known inputs (disturbance_v, torque_enable) enter the plant (plant_input.hpp).
   const Controller& ctl = run.controller;
-  const SampledReference ref(d.t, d.r);
   const InitialState x0 = initial_state_of(d);
   m.use_alpha = false;
-  const SimulationResult lin = simulate(m, ctl, ref, d.t, x0, fit.simulation);
+  const SimulationResult lin = simulate_recorded_run(m, ctl, d, x0, fit.simulation);
   SimulationResult alp;
   if (fit.alpha.ok) {
     m.use_alpha = true;
-    alp = simulate(m, ctl, ref, d.t, x0, fit.simulation);
+    alp = simulate_recorded_run(m, ctl, d, x0, fit.simulation);
   }
   if (!lin.ok) {
     rv.message = "linear simulation failed: " + lin.message;

@@ -13,10 +13,6 @@
 
 namespace alphainv::detail {
 
-/// Whether run `d` switches the motor off somewhere (a `torque_enable` column with a 0): the
-/// closed-loop model does not hold then (free fall).
-bool has_torque_off(const RunData& d);
-
 /// FitPipelineOptions::progress, serialised by a mutex: stage 8's workers call it from their
 /// threads. Does nothing when the options have no progress function.
 class ProgressReporter {

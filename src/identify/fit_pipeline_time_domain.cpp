@@ -5,21 +5,10 @@
 
 #include "alphainv/identify/fit_stages.hpp"
 #include "alphainv/identify/time_domain_fit.hpp"
+#include "alphainv/simulate/known_inputs.hpp"
 #include "fit_pipeline_internal.hpp"
 
 namespace alphainv {
-namespace detail {
-
-bool has_torque_off(const RunData& d) {
-  const std::vector<double>* en = d.column("torque_enable");
-  if (en == nullptr) return false;
-  for (double x : *en) {
-    if (x == 0.0) return true;
-  }
-  return false;
-}
-
-}  // namespace detail
 
 void fit_time_domain_poses(const Dataset& dataset, const std::vector<RunData>& data,
                            const FitPipelineOptions& options, DatasetFit& fit) {
@@ -38,10 +27,9 @@ void fit_time_domain_poses(const Dataset& dataset, const std::vector<RunData>& d
     if (pose.linear.valid || (fit.has_inertia_model && pose.gamma1_deg)) continue;
     std::vector<TimeDomainRun> runs;
     for (std::size_t i : pose.runs) {
-      if (detail::has_torque_off(data[i])) {
-        ++torque_off;
-        continue;
-      }
+      // A run that switches the motor off is fitted with its torque_enable column as a known
+      // input (plant_input.hpp: the amplifier gives nothing while it is 0).
+      if (KnownInputSeries::of_run(data[i]).has_torque_off()) ++torque_off;
       const Controller& ctl = dataset.runs[i].controller;
       if (!(ctl.kp > 0.0)) {
         ++not_p;
@@ -99,9 +87,9 @@ void fit_time_domain_poses(const Dataset& dataset, const std::vector<RunData>& d
   }
   if (torque_off > 0) {
     fit.notes.push_back(std::to_string(torque_off) +
-                        " run(s) switch the motor off (torque_enable = 0: free fall); the "
-                        "closed-loop model does not describe them, so they are left out of the "
-                        "time-domain fit and not validated");
+                        " run(s) switch the motor off (torque_enable = 0: free motion); their "
+                        "torque_enable column enters the plant as a known input (the amplifier "
+                        "gives nothing while it is 0)");
   }
   if (not_p > 0) {
     fit.notes.push_back(std::to_string(not_p) + " run(s) have no kp > 0; not fitted");

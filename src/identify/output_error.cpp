@@ -11,7 +11,6 @@
 #include "alphainv/error.hpp"
 #include "alphainv/identify/fit_report.hpp"
 #include "alphainv/model/detail/field_checks.hpp"
-#include "alphainv/simulate/reference.hpp"
 #include "common/parallel_for.hpp"
 
 namespace alphainv {
@@ -121,40 +120,14 @@ std::string check_problem(const OutputErrorProblem& pr) {
 
 }  // namespace
 
-InitialState initial_state_of(const RunData& run) {
-  InitialState s;
-  if (run.size() == 0) return s;
-  s.theta = run.theta[0];
-  // θ̇(t0) from a least-squares quadratic through the first 10 ms (at least 4 samples): a line
-  // would take a run that starts at rest and accelerates for one already moving.
-  std::size_t m = 1;
-  while (m < run.size() && (run.t[m] - run.t[0] <= 10e-3 || m < 4)) ++m;
-  if (m < 3) return s;
-  Eigen::MatrixXd a(static_cast<Eigen::Index>(m), 3);
-  Eigen::VectorXd y(static_cast<Eigen::Index>(m));
-  const double span = run.t[m - 1] - run.t[0];
-  for (std::size_t k = 0; k < m; ++k) {
-    const double x = (run.t[k] - run.t[0]) / span;  // scaled to [0, 1] for conditioning
-    const auto i = static_cast<Eigen::Index>(k);
-    a(i, 0) = 1.0;
-    a(i, 1) = x;
-    a(i, 2) = x * x;
-    y(i) = run.theta[k];
-  }
-  const Eigen::Vector3d c = a.colPivHouseholderQr().solve(y);
-  if (std::isfinite(c(1)) && span > 0) s.theta_dot = c(1) / span;
-  return s;
-}
-
 SimulationResult simulate_output_error_run(const OutputErrorProblem& problem, const double* p,
                                            std::size_t i) {
   const OutputErrorRun& run = problem.runs[i];
   const RunData& d = *run.data;
-  const SampledReference ref(d.t, d.r);
   const JointModelAtPose model = problem.model(p, i);
   InitialState x0 = initial_state_of(d);
   x0.command_history = run.command_history;
-  return simulate(model, run.controller, ref, d.t, x0, problem.simulation);
+  return simulate_recorded_run(model, run.controller, d, x0, problem.simulation);
 }
 
 std::vector<double> output_error_rms(const OutputErrorProblem& problem, const std::vector<double>& p,

@@ -9,6 +9,8 @@
 #include "alphainv/identify/fit_report.hpp"
 #include "alphainv/identify/output_error.hpp"
 #include "alphainv/model/detail/field_checks.hpp"
+#include "alphainv/model/plant_input.hpp"
+#include "alphainv/simulate/known_inputs.hpp"
 
 namespace alphainv {
 
@@ -116,11 +118,13 @@ TimeDomainLinearFit fit_linear_time_domain(const std::vector<TimeDomainRun>& run
   std::size_t used = 0;
   for (const auto& run : runs) {
     const RunData& d = *run.data;
+    const KnownInputSeries known = KnownInputSeries::of_run(d);
     std::vector<double> dth, ddth;
     local_quadratic_derivatives(d.t, d.theta, options.smoothing_window_s, dth, ddth);
     for (std::size_t k = 0; k < d.size(); ++k) {
-      const double u = amplifier(options.effects, d.v[k]) +
-                       effect_torque(options.effects, d.theta[k], dth[k]);
+      // u of plant_input.hpp at the sample (the delay is left to the output-error stage).
+      const double u = plant_input(options.effects, d.t[k], d.v[k], d.theta[k], dth[k],
+                                   known.at_sample(k));
       const Eigen::Vector2d row(-dth[k], u);
       if (!row.allFinite() || !std::isfinite(ddth[k])) continue;
       ata += row * row.transpose();

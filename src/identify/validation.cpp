@@ -8,8 +8,11 @@
 #include <limits>
 
 #include "alphainv/error.hpp"
+#include "alphainv/identify/metrics.hpp"
 #include "alphainv/identify/output_error.hpp"
+#include "alphainv/simulate/known_inputs.hpp"
 #include "alphainv/simulate/model_simulation.hpp"
+#include "alphainv/simulate/recorded_run.hpp"
 #include "alphainv/simulate/reference.hpp"
 #include "common/format.hpp"
 #include "common/parallel_for.hpp"
@@ -28,6 +31,7 @@ struct InitialFit {
   std::vector<double> times;
   SimulationOptions simulation;
   InitialState base;
+  KnownInputSeries known;
 };
 
 double initial_objective(unsigned, const double* x, double*, void* p) {
@@ -35,7 +39,8 @@ double initial_objective(unsigned, const double* x, double*, void* p) {
   InitialState x0 = f.base;
   x0.theta = x[0];
   x0.theta_dot = x[1];
-  const SimulationResult s = simulate(*f.joint, *f.controller, *f.reference, f.times, x0, f.simulation);
+  const SimulationResult s =
+      simulate(*f.joint, *f.controller, *f.reference, f.times, x0, f.simulation, f.known);
   if (!s.ok || s.theta.size() != f.times.size()) return 1e30;
   double ss = 0.0;
   for (std::size_t k = 0; k < f.times.size(); ++k) {
@@ -73,12 +78,12 @@ InitialState fit_initial_state(InitialFit& f, std::size_t n) {
   return out;
 }
 
+/// The median sample step of `t` [s] (0 for fewer than 2 samples).
 double median_period(const std::vector<double>& t) {
   if (t.size() < 2) return 0.0;
   std::vector<double> dt(t.size() - 1);
   for (std::size_t k = 1; k < t.size(); ++k) dt[k - 1] = t[k] - t[k - 1];
-  std::nth_element(dt.begin(), dt.begin() + static_cast<std::ptrdiff_t>(dt.size() / 2), dt.end());
-  return dt[dt.size() / 2];
+  return median(std::move(dt));
 }
 
 ValidatedRun validate_run(const ModelFile& model, const RunInfo& info, const RunData& d,
@@ -102,17 +107,19 @@ ValidatedRun validate_run(const ModelFile& model, const RunInfo& info, const Run
   SimulationOptions so = options.simulation;
   so.loop_period_s = model.loop_period_s;
   InitialState x0 = initial_state_of(d);
+  const KnownInputUse use = options.use_known_inputs ? KnownInputUse::kUse : KnownInputUse::kIgnore;
   if (options.initial_samples > 0) {
     if (options.initial_samples + 2 > d.size()) {
       v.message = "has " + std::to_string(d.size()) + " samples, not more than --initial-samples " +
                   std::to_string(options.initial_samples);
       return v;
     }
-    InitialFit f{&joint, &controller, &reference, &d, {}, so, x0};
+    InitialFit f{&joint, &controller, &reference, &d, {}, so, x0, {}};
+    if (use == KnownInputUse::kUse) f.known = KnownInputSeries::of_run(d);
     x0 = fit_initial_state(f, options.initial_samples);
     v.first_sample = options.initial_samples;
   }
-  const SimulationResult s = simulate(joint, controller, reference, d.t, x0, so);
+  const SimulationResult s = simulate_recorded_run(joint, controller, d, x0, so, use);
   if (!s.ok || s.theta.size() != d.size()) {
     v.message = "simulation failed: " + s.message;
     return v;

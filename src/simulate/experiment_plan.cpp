@@ -148,8 +148,32 @@ std::vector<PoseSetPoint> paper_square_poses() {
   return out;
 }
 
+double DisturbancePulses::at(double t_s, std::size_t run_index) const noexcept {
+  if (!active() || !(period_s > 0.0)) return 0.0;
+  const double golden = 0.6180339887498949;
+  const double shift = period_s * std::fmod(golden * static_cast<double>(run_index), 1.0);
+  const double since = t_s - first_s - shift;
+  if (since < 0.0) return 0.0;
+  const double pulse = std::floor(since / period_s);
+  if (since - pulse * period_s >= width_s) return 0.0;
+  return std::fmod(pulse, 2.0) == 0.0 ? amplitude_v : -amplitude_v;
+}
+
 void ExperimentPlanOptions::validate() const {
   validate_plant(plant, "plant.", "");
+  {
+    const DisturbancePulses& d = disturbance_pulses;
+    require(std::isfinite(d.amplitude_v) && d.amplitude_v >= 0.0,
+            "disturbance_pulses.amplitude_v", "an amplitude >= 0 [command unit]", d.amplitude_v);
+    if (d.active()) {
+      require(std::isfinite(d.period_s) && d.period_s > 0.0, "disturbance_pulses.period_s",
+              "a period > 0 [s]", d.period_s);
+      require(std::isfinite(d.width_s) && d.width_s > 0.0 && d.width_s < d.period_s,
+              "disturbance_pulses.width_s", "a width in (0, period_s) [s]", d.width_s);
+      require(std::isfinite(d.first_s) && d.first_s >= 0.0, "disturbance_pulses.first_s",
+              "a start time >= 0 [s]", d.first_s);
+    }
+  }
   const double T = plant.tick_period_s;
   const double nyquist = 0.5 / T;
   require(std::isfinite(controller.kp), "controller.kp", "a finite gain", controller.kp);
@@ -326,6 +350,10 @@ RunData simulate_planned_run(const ExperimentPlan& plan, std::size_t i) {
   const PlannedRun& run = plan.runs[i];
   ClosedLoopOptions opt;
   opt.record_truth = plan.options.record_truth_columns;
+  if (plan.options.disturbance_pulses.active()) {
+    const DisturbancePulses pulses = plan.options.disturbance_pulses;
+    opt.disturbance_v = [pulses, i](double t) { return pulses.at(t, i); };
+  }
   if (run.kind == "sine") {
     const SineReference ref(run.amplitude_rad, run.freq_hz);
     return run_closed_loop(omni, plan.options.controller, ref, run.duration_s, opt);
@@ -410,6 +438,18 @@ std::string truth_json(const ExperimentPlan& plan) {
       .raw("measurement", measurement.text())
       .raw("pose_offsets_deg", offsets.text())
       .raw("controller", controller.text());
+  if (o.disturbance_pulses.active()) {
+    const DisturbancePulses& d = o.disturbance_pulses;
+    JsonObject pulses;
+    pulses.num("amplitude_v", d.amplitude_v)
+        .num("width_s", d.width_s)
+        .num("period_s", d.period_s)
+        .num("first_s", d.first_s)
+        .str("equation",
+             "d(t) = +-amplitude_v (alternating, + first) for width_s every period_s from first_s "
+             "+ frac(0.618 i) period_s (run i); added to n, recorded as disturbance_v");
+    truth.raw("disturbance_pulses", pulses.text());
+  }
   return truth.text();
 }
 

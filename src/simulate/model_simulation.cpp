@@ -132,7 +132,10 @@ ModelRun simulate_model_run(const ModelFile& model, const JointModelAtPose& join
     x0.theta = -o.amplitude_rad;  // the paper's step runs start at the low level
   }
   const std::vector<double> times = uniform_times(o.duration_s, 1.0 / o.sample_rate_hz);
-  const SimulationResult s = simulate(joint, run.controller, *ref, times, x0, run.simulation);
+  const KnownInputSeries known =
+      o.known_inputs != nullptr ? KnownInputSeries::of_run(*o.known_inputs) : KnownInputSeries{};
+  const SimulationResult s =
+      simulate(joint, run.controller, *ref, times, x0, run.simulation, known);
 
   run.info.kind = sine ? "sine" : "square";
   run.info.file = "runs/" + run.info.kind + "_" + num(o.freq_hz) + "hz.csv";
@@ -154,6 +157,16 @@ ModelRun simulate_model_run(const ModelFile& model, const JointModelAtPose& join
   d.extra_columns["C"] = s.damping;
   d.extra_columns["beta_tilde"] = s.beta_tilde;
   d.extra_columns["theta_dot"] = s.theta_dot;
+  if (known.has_disturbance() || known.has_torque_enable()) {
+    std::vector<double> dist, enable;
+    for (double t : s.t) {
+      const KnownInputs k = known.at(t);
+      dist.push_back(k.disturbance_v);
+      enable.push_back(k.torque_enabled ? 1.0 : 0.0);
+    }
+    if (known.has_disturbance()) d.extra_columns["disturbance_v"] = std::move(dist);
+    if (known.has_torque_enable()) d.extra_columns["torque_enable"] = std::move(enable);
+  }
   for (const auto& [name, col] : d.extra_columns) {
     for (double x : col) {
       if (!std::isfinite(x)) {

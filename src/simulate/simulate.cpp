@@ -12,6 +12,7 @@
 #include <sunmatrix/sunmatrix_dense.h>
 
 #include "alphainv/model/alpha.hpp"
+#include "alphainv/model/plant_input.hpp"
 #include "alphainv/error.hpp"
 #include "alphainv/simulate/virtual_omni.hpp"
 
@@ -31,8 +32,9 @@ struct RhsValue {
 class ClosedLoop {
  public:
   ClosedLoop(const JointModelAtPose& model, const Controller& controller,
-             const SimulationOptions& options, SimulationResult& stats)
-      : model_(model), ctl_(controller), opt_(options), stats_(stats) {
+             const SimulationOptions& options, const KnownInputSeries& known,
+             SimulationResult& stats)
+      : model_(model), ctl_(controller), opt_(options), known_(known), stats_(stats) {
     // Coefficients at the run's inertia, computed once (eq. (40), (42)).
     const auto& a = model.alpha;
     n_ = a.n_breakpoints;
@@ -64,7 +66,14 @@ class ClosedLoop {
   bool has_delay() const { return model_.effects.delay_s > 0.0; }
   double delay_s() const { return model_.effects.delay_s; }
 
+  /// The known inputs at t (zero-order hold of their samples).
+  KnownInputs known_at(double t) const noexcept { return known_.at(t); }
+
   RhsValue eval(double t, const ReferenceSample& ref, const State& x) {
+    return eval(t, ref, x, known_.at(t));
+  }
+
+  RhsValue eval(double t, const ReferenceSample& ref, const State& x, const KnownInputs& known) {
     ++stats_.rhs_evaluations;
     const double theta = x[0], phi = x[1], z = x[2];
     const double e = ref.r - theta;
@@ -86,14 +95,19 @@ class ClosedLoop {
     };
     RhsValue out;
     out.v = v;
-    // The applied input: the command through delay, deadzone and saturation, plus the torque-like
-    // effects n(θ, Φ) (eq. (11) with effects.hpp). α stays that of the controller's command.
-    const Effects& fx = model_.effects;
-    const double u = amplifier(fx, delayed_command(t, v)) + effect_torque(fx, theta, phi);
+    // The applied input u of plant_input.hpp: the command through delay, deadzone, saturation and
+    // the motor enable, plus the torques n(θ, Φ) + d(t). α stays that of the controller's command,
+    // 0 while the motor is off (the joint receives no command energy, as in the virtual plant).
+    const double u = plant_input(model_.effects, t, delayed_command(t, v), theta, phi, known);
     double c = model_.c_linear, b = model_.beta_tilde_linear;
     double phi_dot = -c * phi + b * u;  // eq. (45) with erratum 4: the linear-model Φ̇
-    double alpha = alpha_instantaneous(v, v_dot_of(phi_dot), v_ddot_of(phi_dot));
-    if (model_.use_alpha) {
+    double alpha =
+        known.torque_enabled ? alpha_instantaneous(v, v_dot_of(phi_dot), v_ddot_of(phi_dot)) : 0.0;
+    if (model_.use_alpha && !known.torque_enabled) {
+      c = interpolate_held(model_.alpha.alpha.data(), c_at_.data(), n_, alpha);
+      b = interpolate_held(model_.alpha.beta_alpha.data(), b_at_.data(), 2, alpha);
+      phi_dot = -c * phi + b * u;
+    } else if (model_.use_alpha) {
       int it = 0;
       for (;;) {
         c = interpolate_held(model_.alpha.alpha.data(), c_at_.data(), n_, alpha);
@@ -127,6 +141,7 @@ class ClosedLoop {
   const JointModelAtPose& model_;
   const Controller& ctl_;
   const SimulationOptions& opt_;
+  const KnownInputSeries& known_;
   SimulationResult& stats_;
   std::size_t n_ = 0;
   std::array<double, kMaxBreakpoints> c_at_{};
@@ -184,10 +199,11 @@ void simulate_rk4(ClosedLoop& loop, const Reference& ref, const std::vector<doub
       const double h = span / steps;
       for (int i = 0; i < steps; ++i) {
         const double ts = t + i * h;
+        const KnownInputs known = loop.known_at(ts + 0.5 * h);  // held over the step
         auto f = [&](double tt, const State& xx) {
-          return loop.eval(tt, ref_at(ref, tt, seg_end, end_is_jump), xx).dx;
+          return loop.eval(tt, ref_at(ref, tt, seg_end, end_is_jump), xx, known).dx;
         };
-        const RhsValue f1 = loop.eval(ts, ref_at(ref, ts, seg_end, end_is_jump), x);
+        const RhsValue f1 = loop.eval(ts, ref_at(ref, ts, seg_end, end_is_jump), x, known);
         loop.commit(ts, f1.v);
         const State k1 = f1.dx;
         State x2, x3, x4;
@@ -310,7 +326,8 @@ void simulate_cvode(ClosedLoop& loop, const Reference& ref, const std::vector<do
 /// C, β̃ and effects, no measurement effects, driven by the sampled PID law of run_closed_loop.
 void simulate_digital(const JointModelAtPose& model, const Controller& ctl, const Reference& ref,
                       const std::vector<double>& times, const InitialState& init,
-                      const SimulationOptions& opt, SimulationResult& res) {
+                      const SimulationOptions& opt, const KnownInputSeries& known,
+                      SimulationResult& res) {
   const double T = opt.loop_period_s;
   const double t0 = times.front();
   VirtualOmniParams p;
@@ -321,7 +338,7 @@ void simulate_digital(const JointModelAtPose& model, const Controller& ctl, cons
                       : constant_alpha_model(1.0 / (model.c_linear * model.inertia),
                                              1.0 / (model.beta_tilde_linear * model.inertia));
   p.alpha_filter.sample_period_s = T;
-  p.alpha_filter.cutoff_hz = opt.loop_alpha_cutoff_hz;
+  p.alpha_filter.cutoff_hz = loop_alpha_cutoff_hz(opt);
   p.tick_period_s = T;
   p.initial_theta_rad = init.theta;
   p.initial_theta_dot_rad_s = init.theta_dot;
@@ -370,7 +387,7 @@ void simulate_digital(const JointModelAtPose& model, const Controller& ctl, cons
     th[k] = theta;
     thd[k] = omni->theta_dot();
     vk[k] = v;
-    omni->step(v);
+    omni->step(v, known.at(t));
     ak[k] = omni->alpha();
     ck[k] = omni->damping();
     bk[k] = omni->beta_tilde();
@@ -415,7 +432,8 @@ std::vector<double> uniform_times(double duration_s, double dt_s, double t0_s) {
 
 SimulationResult simulate(const JointModelAtPose& model, const Controller& controller,
                           const Reference& reference, const std::vector<double>& times_s,
-                          const InitialState& initial, const SimulationOptions& options) {
+                          const InitialState& initial, const SimulationOptions& options,
+                          const KnownInputSeries& known_inputs) {
   SimulationResult res;
   if (times_s.empty()) {
     res.message = "no output times";
@@ -451,10 +469,10 @@ SimulationResult simulate(const JointModelAtPose& model, const Controller& contr
       res.message = "loop_period_s must be finite";
       return res;
     }
-    simulate_digital(model, controller, reference, times_s, initial, options, res);
+    simulate_digital(model, controller, reference, times_s, initial, options, known_inputs, res);
     return res;
   }
-  ClosedLoop loop(model, controller, options, res);
+  ClosedLoop loop(model, controller, options, known_inputs, res);
   const State x0{initial.theta, initial.theta_dot, initial.integral};
   if (options.integrator == Integrator::kCvode && model.effects.delay_s > 0.0) {
     res.message = "a time delay needs the fixed-point RK4 integrator or the digital loop";

@@ -138,14 +138,14 @@ void VirtualOmni::reset() noexcept {
   theta_dot_ = params_.initial_theta_dot_rad_s;
   std::fill(delay_line_.begin(), delay_line_.end(), params_.initial_command_v);
   delay_head_ = 0;
-  estimator_.reset(amplifier(params_.initial_command_v));
+  estimator_.reset(applied_command(params_.effects, params_.initial_command_v));
   rng_.seed(params_.measurement.seed);
   has_spare_gaussian_ = false;
   spare_gaussian_ = 0.0;
   alpha_ = 0.0;
   damping_ = params_.alpha_model.damping(alpha_, inertia_);
   beta_tilde_ = params_.alpha_model.beta_tilde(alpha_, inertia_);
-  v_eff_mean_ = v_eff_peak_ = amplifier(params_.initial_command_v);
+  v_eff_mean_ = v_eff_peak_ = applied_command(params_.effects, params_.initial_command_v);
   time_s_ = 0.0;
   ticks_ = 0;
   theta_measured_ = measure(theta_);
@@ -161,28 +161,28 @@ bool VirtualOmni::set_pose(double gamma1_deg, double gamma2_deg) noexcept {
   return true;
 }
 
-double VirtualOmni::amplifier(double v) const noexcept {
-  return alphainv::amplifier(params_.effects, v);
-}
-
 double VirtualOmni::effect_torque(double theta_rad, double theta_dot_rad_s) const noexcept {
   return alphainv::effect_torque(params_.effects, theta_rad, theta_dot_rad_s);
 }
 
-void VirtualOmni::integrate(double duration_s, double input_v) noexcept {
-  // θ̇ = Φ, Φ̇ = −C Φ + β̃ (u + n(θ, Φ)), eq. (11); C, β̃ and u constant over the segment.
+void VirtualOmni::integrate(double t0_s, double duration_s, double input_v,
+                            const KnownInputs& known) noexcept {
+  // θ̇ = Φ, Φ̇ = −C Φ + β̃ (u + n(θ, Φ, t) + d), eq. (11) with plant_input.hpp; C, β̃, the applied
+  // command u and d constant over the segment.
   const double c = damping_, bt = beta_tilde_;
-  auto accel = [&](double th, double om) noexcept {
-    return -c * om + bt * (input_v + effect_torque(th, om));
+  const Effects& fx = params_.effects;
+  auto accel = [&](double t, double th, double om) noexcept {
+    return -c * om + bt * (input_v + plant_torque(fx, t, th, om, known));
   };
   const int n = params_.substeps;
   const double h = duration_s / n;
   double th = theta_, om = theta_dot_;
   for (int s = 0; s < n; ++s) {
-    const double k1t = om, k1o = accel(th, om);
-    const double k2t = om + 0.5 * h * k1o, k2o = accel(th + 0.5 * h * k1t, k2t);
-    const double k3t = om + 0.5 * h * k2o, k3o = accel(th + 0.5 * h * k2t, k3t);
-    const double k4t = om + h * k3o, k4o = accel(th + h * k3t, k4t);
+    const double ts = t0_s + s * h;
+    const double k1t = om, k1o = accel(ts, th, om);
+    const double k2t = om + 0.5 * h * k1o, k2o = accel(ts + 0.5 * h, th + 0.5 * h * k1t, k2t);
+    const double k3t = om + 0.5 * h * k2o, k3o = accel(ts + 0.5 * h, th + 0.5 * h * k2t, k3t);
+    const double k4t = om + h * k3o, k4o = accel(ts + h, th + h * k3t, k4t);
     th += h / 6.0 * (k1t + 2.0 * k2t + 2.0 * k3t + k4t);
     om += h / 6.0 * (k1o + 2.0 * k2o + 2.0 * k3o + k4o);
   }
@@ -213,7 +213,8 @@ double VirtualOmni::measure(double theta_rad) noexcept {
   return y + 0.0;  // −0 (a negative value rounded to count 0) reads as 0
 }
 
-void VirtualOmni::command_path(double command_v, double& u_early, double& u_late) noexcept {
+void VirtualOmni::command_path(double command_v, const KnownInputs& known, double& u_early,
+                               double& u_late) noexcept {
   // Command path: the delay line holds v_k … v_{k−m−1}; v(t − τ) is v_{k−m−1} for the first
   // fraction φ = τ/T − m of the tick and v_{k−m} after it.
   const std::size_t len = delay_line_.size();
@@ -221,8 +222,8 @@ void VirtualOmni::command_path(double command_v, double& u_early, double& u_late
   delay_line_[delay_head_] = command_v;
   const double v_late = delay_line_[(delay_head_ + len - delay_ticks_) % len];       // v_{k−m}
   const double v_early = delay_line_[(delay_head_ + len - delay_ticks_ - 1) % len];  // v_{k−m−1}
-  u_late = amplifier(v_late);
-  u_early = amplifier(v_early);
+  u_late = applied_command(params_.effects, v_late, known);
+  u_early = applied_command(params_.effects, v_early, known);
   const double phi = delay_fraction_;
   v_eff_mean_ = phi * u_early + (1.0 - phi) * u_late;
   v_eff_peak_ = phi > 0.0 ? std::max(std::abs(u_early), std::abs(u_late)) : std::abs(u_late);
@@ -235,19 +236,19 @@ void VirtualOmni::command_path(double command_v, double& u_early, double& u_late
 
 void VirtualOmni::prime_commands(const double* commands_v, std::size_t n) noexcept {
   double u_early = 0.0, u_late = 0.0;
-  for (std::size_t k = 0; k < n; ++k) command_path(commands_v[k], u_early, u_late);
+  for (std::size_t k = 0; k < n; ++k) command_path(commands_v[k], KnownInputs{}, u_early, u_late);
 }
 
-double VirtualOmni::step(double command_v, double disturbance_v) noexcept {
+double VirtualOmni::step(double command_v, const KnownInputs& known) noexcept {
   double u_early = 0.0, u_late = 0.0;
-  command_path(command_v, u_early, u_late);
+  command_path(command_v, known, u_early, u_late);
   const double phi = delay_fraction_;
   const double T = params_.tick_period_s;
   if (phi > 0.0) {
-    integrate(phi * T, u_early + disturbance_v);
-    integrate((1.0 - phi) * T, u_late + disturbance_v);
+    integrate(time_s_, phi * T, u_early, known);
+    integrate(time_s_ + phi * T, (1.0 - phi) * T, u_late, known);
   } else {
-    integrate(T, u_late + disturbance_v);
+    integrate(time_s_, T, u_late, known);
   }
   ++ticks_;
   time_s_ = static_cast<double>(ticks_) * T;
@@ -293,6 +294,11 @@ RunData run_closed_loop(VirtualOmni& omni, const Controller& controller, const R
     dist = &out.extra_columns["disturbance_v"];
     dist->resize(n);
   }
+  std::vector<double>* enable = nullptr;
+  if (options.torque_enable) {
+    enable = &out.extra_columns["torque_enable"];
+    enable->resize(n);
+  }
 
   double integral = 0.0, e_prev = 0.0, theta_prev = 0.0;
   for (std::size_t k = 0; k < n; ++k) {
@@ -314,16 +320,20 @@ RunData run_closed_loop(VirtualOmni& omni, const Controller& controller, const R
     out.r[k] = r;
     out.theta[k] = theta;
     out.v[k] = v;
-    double d_ext = 0.0;
+    KnownInputs known;
     if (dist != nullptr) {
-      d_ext = options.disturbance_v(t);
-      (*dist)[k] = d_ext;
+      known.disturbance_v = options.disturbance_v(t);
+      (*dist)[k] = known.disturbance_v;
+    }
+    if (enable != nullptr) {
+      known.torque_enabled = options.torque_enable(t);
+      (*enable)[k] = known.torque_enabled ? 1.0 : 0.0;
     }
     if (theta_true != nullptr) {
       (*theta_true)[k] = omni.theta();
       (*theta_dot_true)[k] = omni.theta_dot();
     }
-    (void)omni.step(v, d_ext);
+    (void)omni.step(v, known);
     if (theta_true != nullptr) {
       (*v_eff)[k] = omni.command_effective();
       (*alpha_true)[k] = omni.alpha();

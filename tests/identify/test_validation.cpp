@@ -111,6 +111,45 @@ TEST(Validation, InitialSamplesAreFittedAndLeftOutOfTheFigures) {
   (void)true_start;
 }
 
+TEST(Validation, KnownDisturbancePulsesEnterFromTheRunsColumn) {
+  const ModelFile model = paper_model();
+  const JointModelAtPose joint = model_at(model, 60.08, 87.0, true);
+  // Pulses of ±0.04 V for 0.1 s every 0.5 s (the truth), on a 2 Hz sine run with σ = 2e-4 rad.
+  RunData pulses;
+  pulses.t = uniform_times(3.0, 1e-3);
+  pulses.r = pulses.theta = pulses.v = std::vector<double>(pulses.t.size(), 0.0);
+  std::vector<double>& d = pulses.extra_columns["disturbance_v"];
+  for (double t : pulses.t) {
+    const double phase = std::fmod(t, 0.5);
+    d.push_back(phase >= 0.2 && phase < 0.3 ? (std::fmod(t, 1.0) < 0.5 ? 0.04 : -0.04) : 0.0);
+  }
+  ModelRunOptions o;
+  o.freq_hz = 2.0;
+  o.duration_s = 3.0;
+  o.known_inputs = &pulses;
+  const ModelRun run = simulate_model_run(model, joint, o, 60.08, 87.0);
+  ASSERT_TRUE(run.ok) << run.message;
+  ASSERT_NE(run.data.column("disturbance_v"), nullptr);  // recorded with the run
+  EXPECT_EQ(*run.data.column("disturbance_v"), d);
+  Dataset ds = model_run_dataset(model, run, 1000.0);
+  RunData noisy = run.data;
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> g(0.0, 2e-4);
+  for (double& th : noisy.theta) th += g(rng);
+  const std::vector<RunData> data{noisy};
+  ValidationOptions used;
+  used.initial_samples = 100;
+  ValidationOptions ignored = used;
+  ignored.use_known_inputs = false;
+  const ValidationResult with = validate_model(model, ds, data, used);
+  const ValidationResult without = validate_model(model, ds, data, ignored);
+  ASSERT_TRUE(with.ok && without.ok) << with.message << without.message;
+  EXPECT_NEAR(with.position.rms, 2e-4, 2e-5) << with.full_report();  // the noise floor
+  EXPECT_GT(without.position.rms, 5.0 * with.position.rms) << without.full_report();
+  EXPECT_TRUE(with.runs[0].residual.white) << with.full_report();
+  EXPECT_FALSE(without.runs[0].residual.white) << without.full_report();
+}
+
 TEST(Validation, RunsItCannotSimulateAreNamedAndLeftOut) {
   const ModelFile model = paper_model();
   Dataset ds;

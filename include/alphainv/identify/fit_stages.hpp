@@ -81,8 +81,9 @@ void choose_model_simulation(const std::vector<RunData>& data, const FitPipeline
 
 /// Stage 7 (time_domain_fit.hpp): the linear model of every pose that has none yet (no sine runs,
 /// and no inertia model to predict it) by output error on the pose's runs under their own
-/// controllers, and the α-model of a single-pose dataset when stage 5 gave none. Runs that switch
-/// the motor off (torque_enable = 0) or have no kp > 0 are left out. Needs stages 1-6.
+/// controllers, and the α-model of a single-pose dataset when stage 5 gave none, with the runs'
+/// known inputs (disturbance_v, torque_enable: plant_input.hpp). Runs with no kp > 0 are left out.
+/// Needs stages 1-6.
 void fit_time_domain_poses(const Dataset& dataset, const std::vector<RunData>& data,
                            const FitPipelineOptions& options, DatasetFit& fit);
 

@@ -18,6 +18,7 @@
 
 #include "alphainv/model/controller.hpp"
 #include "alphainv/data/dataset.hpp"
+#include "alphainv/simulate/recorded_run.hpp"  // initial_state_of
 #include "alphainv/simulate/simulate.hpp"
 
 namespace alphainv {
@@ -89,7 +90,8 @@ OutputErrorResult fit_output_error(const OutputErrorProblem& problem,
                                    const OutputErrorOptions& options = {});
 
 /// Simulates run `i` of `problem` with parameters `p` from the run's first measured state
-/// (θ(t0) = θ_0, θ̇(t0) from the first samples). Not real-time.
+/// (θ(t0) = θ_0, θ̇(t0) from the first samples), with the run's known inputs
+/// (simulate_recorded_run). Not real-time.
 SimulationResult simulate_output_error_run(const OutputErrorProblem& problem, const double* p,
                                            std::size_t i);
 
@@ -97,8 +99,5 @@ SimulationResult simulate_output_error_run(const OutputErrorProblem& problem, co
 std::vector<double> output_error_rms(const OutputErrorProblem& problem, const std::vector<double>& p,
                                      unsigned threads = 0);
 
-/// The initial state of a measured run: θ_0, and θ̇ at t0 from a least-squares quadratic through
-/// the samples of the first 10 ms (at least 4 samples).
-InitialState initial_state_of(const RunData& run);
 
 }  // namespace alphainv

@@ -27,6 +27,9 @@ struct ValidationOptions {
   /// are then left out of the figures (`compare`'s initial-condition estimation).
   std::size_t initial_samples = 0;
   bool use_alpha = true;          ///< false: the model's global linear model (26)
+  /// The runs' known inputs (disturbance_v, torque_enable columns) enter the simulation
+  /// (plant_input.hpp); false: ignored, to measure what they explain.
+  bool use_known_inputs = true;
   ResidualTestOptions residual;   ///< lags and confidence of the residual tests
   SimulationOptions simulation;   ///< solver settings; loop_period_s is the model's
   unsigned threads = 0;           ///< runs simulated in parallel (0: all cores)

@@ -47,6 +47,22 @@ std::vector<PoseSetPoint> paper_sine_poses();
 /// Table 2's 25 poses: γ1 ∈ {25, 35, 45, 55, 65}° × γ2 ∈ {60, 70, 90, 110, 115}°.
 std::vector<PoseSetPoint> paper_square_poses();
 
+/// Known external disturbance pulses d(t) [command unit] (plant_input.hpp) on every run, recorded as
+/// its `disturbance_v` column, so the known-input path is tested on ground truth: rectangular
+/// pulses of ±amplitude_v (alternating in sign, + first), width_s long, one every period_s from
+/// first_s plus a per-run shift frac(0.618·i)·period_s (run i), so they fall at other phases of
+/// the reference in each run. amplitude_v = 0: none (no column).
+struct DisturbancePulses {
+  double amplitude_v = 0.0;  ///< pulse height [command unit], ≥ 0 (0: off)
+  double width_s = 0.1;      ///< pulse length [s], 0 < width_s < period_s
+  double period_s = 1.0;     ///< one pulse every period_s [s]
+  double first_s = 0.5;      ///< start of the first pulse before the per-run shift [s], ≥ 0
+
+  bool active() const noexcept { return amplitude_v > 0.0; }
+  /// d(t) of run `run_index` at time `t_s` [s] from the run's start. Real-time safe.
+  double at(double t_s, std::size_t run_index) const noexcept;
+};
+
 /// What to generate. Default-constructed: the paper's plan (Tables 1 and 2, ±0.07 rad, kp = 2,
 /// 1 kHz) on the virtual Omni with every effect OFF. paper_plan_options() adds the bundled set's
 /// effects.
@@ -73,6 +89,7 @@ struct ExperimentPlanOptions {
 
   PoseOffsetRange pose_offsets;       ///< true − set pose angles [deg]
   bool record_truth_columns = false;  ///< add run_closed_loop's truth columns to every run
+  DisturbancePulses disturbance_pulses;  ///< known disturbance pulses (off by default)
   std::string joint = "yaw";          ///< dataset.json `joint`
   /// Recorded as dataset.json `generator` when not empty (e.g. the omni_gen command line).
   std::string generator_command;

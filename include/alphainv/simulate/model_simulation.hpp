@@ -47,6 +47,10 @@ struct ModelRunOptions {
   /// Solver settings; loop_period_s is replaced by the model's (ModelFile::loop_period_s), so the
   /// run uses the digital loop exactly when the model was identified with it.
   SimulationOptions simulation;
+  /// Known inputs (plant_input.hpp): a run whose `disturbance_v` and `torque_enable` columns, at
+  /// its own sample times and held between them (known_inputs.hpp), enter the plant; the simulated
+  /// run records them at its sample times. nullptr: none. Must outlive the call.
+  const RunData* known_inputs = nullptr;
 };
 
 /// A simulated run.
@@ -64,7 +68,8 @@ struct ModelRun {
 
 /// Simulates `options` with `joint` (from model_at) under the controller and simulation mode of
 /// `model`. Throws alphainv::Error naming the option ("freq_hz", "amplitude_rad", "duration_s",
-/// "sample_rate_hz", "kp") when one is out of range; a failed simulation returns ok = false.
+/// "sample_rate_hz", "kp", or "disturbance_v"/"torque_enable" of known_inputs) when one is out of
+/// range; a failed simulation returns ok = false.
 /// `gamma1_deg`/`gamma2_deg` go into the RunInfo only.
 ModelRun simulate_model_run(const ModelFile& model, const JointModelAtPose& joint,
                             const ModelRunOptions& options,

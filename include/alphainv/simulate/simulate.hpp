@@ -16,6 +16,7 @@
 #include "alphainv/model/damping_model.hpp"
 #include "alphainv/model/effects.hpp"
 #include "alphainv/model/inertia_model.hpp"
+#include "alphainv/simulate/known_inputs.hpp"
 #include "alphainv/simulate/reference.hpp"
 
 namespace alphainv {
@@ -59,8 +60,19 @@ struct SimulationOptions {
   /// > 0: simulate the digital loop with this tick period [s] (see the file comment); the output
   /// times are then interpolated linearly from the ticks t0 + k·T. 0: the continuous law (43).
   double loop_period_s = 0.0;
-  double loop_alpha_cutoff_hz = 25.0;  ///< digital loop: the α estimator's cut-off [Hz]
+  /// Digital loop: the α estimator's cut-off [Hz], used up to 0.2/T (a cut-off must lie below
+  /// 0.25/T, the filter's stability bound: data at 40 Hz run the filter at 8 Hz), see
+  /// loop_alpha_cutoff_hz(const SimulationOptions&).
+  double loop_alpha_cutoff_hz = 25.0;
 };
+
+/// The α estimator's cut-off the digital loop uses [Hz]: min(loop_alpha_cutoff_hz, 0.2/T) with
+/// T = loop_period_s (loop_alpha_cutoff_hz when T ≤ 0). Real-time safe.
+inline double loop_alpha_cutoff_hz(const SimulationOptions& options) noexcept {
+  const double T = options.loop_period_s;
+  return T > 0.0 && options.loop_alpha_cutoff_hz > 0.2 / T ? 0.2 / T
+                                                            : options.loop_alpha_cutoff_hz;
+}
 
 /// Simulated trajectory at the requested times and how the solver did.
 struct SimulationResult {
@@ -101,9 +113,14 @@ struct InitialState {
 /// Simulates from times.front() and reports at each entry of `times_s` (strictly increasing).
 /// A time delay in model.effects needs the fixed-point RK4 integrator (its steps are then limited
 /// to the delay, and v(t − τ) is interpolated from the steps taken) or the digital loop.
+/// `known_inputs` (a disturbance d(t) and the motor enable e(t), known_inputs.hpp) enter the
+/// plant's input u of plant_input.hpp: held over each RK4 step at their value at the step's middle
+/// (their zero-order hold when their samples are output times), at each tick of the digital loop,
+/// and at every evaluation of CVODE. α stays that of the controller's command.
 SimulationResult simulate(const JointModelAtPose& model, const Controller& controller,
                           const Reference& reference, const std::vector<double>& times_s,
-                          const InitialState& initial = {}, const SimulationOptions& options = {});
+                          const InitialState& initial = {}, const SimulationOptions& options = {},
+                          const KnownInputSeries& known_inputs = KnownInputSeries{});
 
 /// Uniform time grid t0, t0 + dt, …, up to and including duration (within dt/2).
 std::vector<double> uniform_times(double duration_s, double dt_s, double t0_s = 0.0);

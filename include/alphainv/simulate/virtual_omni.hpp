@@ -6,7 +6,7 @@
 /// simulated device of a 1 kHz controller loop.
 ///
 /// Plant, eq. (11) with the α-invariant model (37):
-///     θ̈ + C(α, I)·θ̇ = β̃(α, I)·(v_eff(t) + n(θ, θ̇) + d_ext(t)),
+///     θ̈ + C(α, I)·θ̇ = β̃(α, I)·(e(t)·v_eff(t) + n(θ, θ̇) + d_ext(t))   (plant_input.hpp),
 /// I = I(γ1, γ2) of eq. (6) at the pose, C and β̃ of eqs. (38)-(42), disturbances n in command
 /// units:
 ///     n = −Fc·tanh(θ̇/ε)                  Coulomb friction (smoothed)
@@ -14,7 +14,8 @@
 ///       − g·sin(θ + θ0)                   gravity (a tilted yaw axis)
 ///       + a·sin(2π·θ/p + φ)               cogging, periodic in θ,
 /// v_eff = S(Z(v(t − τ))): the command delayed by τ, through the amplifier's deadzone Z
-/// (Z(v) = sign(v)·max(|v| − d, 0)) and then its saturation S (clamp to ±v_max).
+/// (Z(v) = sign(v)·max(|v| − d, 0)) and then its saturation S (clamp to ±v_max); e(t) ∈ {0, 1}
+/// the motor enable and d_ext a known external disturbance (step(command, KnownInputs)).
 /// The command v is held constant over each tick (zero-order hold, like a DAC).
 ///
 /// α inside the plant. Friction depends on the energy of the command the joint receives, so once
@@ -49,6 +50,7 @@
 #include "alphainv/data/dataset.hpp"
 #include "alphainv/model/effects.hpp"
 #include "alphainv/model/inertia_model.hpp"
+#include "alphainv/model/plant_input.hpp"
 #include "alphainv/simulate/reference.hpp"
 #include "alphainv/rt/alpha_estimator.hpp"
 
@@ -101,7 +103,15 @@ class VirtualOmni {
   /// disturbance `disturbance_v` [command unit] added to n, undelayed and unsaturated). Returns the
   /// measured θ at the end of the tick [rad].
   /// Real-time safe: noexcept, no allocation, no locks, no I/O.
-  double step(double command_v, double disturbance_v = 0.0) noexcept;
+  double step(double command_v, double disturbance_v = 0.0) noexcept {
+    return step(command_v, KnownInputs{disturbance_v, true});
+  }
+
+  /// Advances one tick with `command_v` held over it and the known inputs `known` held over it:
+  /// the disturbance d and the motor enable e of plant_input.hpp (e = 0: the amplifier gives
+  /// nothing this tick, and the α filter is fed 0). Returns the measured θ at the end of the tick.
+  /// Real-time safe: noexcept, no allocation, no locks, no I/O.
+  double step(double command_v, const KnownInputs& known) noexcept;
 
   /// Feeds past commands (oldest first) through the command path (delay line, amplifier, α
   /// filter) without moving the joint: starts a simulation from the middle of a recorded run with
@@ -137,9 +147,9 @@ class VirtualOmni {
   const VirtualOmniParams& params() const noexcept { return params_; }
 
  private:
-  void integrate(double duration_s, double input_v) noexcept;
-  void command_path(double command_v, double& u_early, double& u_late) noexcept;
-  double amplifier(double v) const noexcept;
+  void integrate(double t0_s, double duration_s, double input_v, const KnownInputs& known) noexcept;
+  void command_path(double command_v, const KnownInputs& known, double& u_early,
+                    double& u_late) noexcept;
   double measure(double theta_rad) noexcept;
   double gaussian() noexcept;
 
@@ -169,6 +179,9 @@ struct ClosedLoopOptions {
   /// A known external disturbance d_ext(t_k) [command unit], held over tick k and recorded as the
   /// `disturbance_v` column. Empty: none.
   std::function<double(double t_s)> disturbance_v;
+  /// The motor enable e(t_k), held over tick k (false: the amplifier gives nothing) and recorded
+  /// as the `torque_enable` column (1/0). Empty: always on, no column.
+  std::function<bool(double t_s)> torque_enable;
 };
 
 /// Runs `omni` from its current state under a DIGITAL PID at its tick period T for `duration_s`:

@@ -1,0 +1,60 @@
+#include "alphainv/simulate/recorded_run.hpp"
+
+#include <cmath>
+
+#include <Eigen/Dense>
+
+#include "alphainv/error.hpp"
+#include "alphainv/simulate/known_inputs.hpp"
+#include "alphainv/simulate/reference.hpp"
+
+namespace alphainv {
+
+InitialState initial_state_of(const RunData& run) {
+  InitialState s;
+  if (run.size() == 0) return s;
+  s.theta = run.theta[0];
+  // θ̇(t0) from a least-squares quadratic through the first 10 ms (at least 4 samples): a line
+  // would take a run that starts at rest and accelerates for one already moving.
+  std::size_t m = 1;
+  while (m < run.size() && (run.t[m] - run.t[0] <= 10e-3 || m < 4)) ++m;
+  if (m < 3) return s;
+  Eigen::MatrixXd a(static_cast<Eigen::Index>(m), 3);
+  Eigen::VectorXd y(static_cast<Eigen::Index>(m));
+  const double span = run.t[m - 1] - run.t[0];
+  for (std::size_t k = 0; k < m; ++k) {
+    const double x = (run.t[k] - run.t[0]) / span;  // scaled to [0, 1] for conditioning
+    const auto i = static_cast<Eigen::Index>(k);
+    a(i, 0) = 1.0;
+    a(i, 1) = x;
+    a(i, 2) = x * x;
+    y(i) = run.theta[k];
+  }
+  const Eigen::Vector3d c = a.colPivHouseholderQr().solve(y);
+  if (std::isfinite(c(1)) && span > 0) s.theta_dot = c(1) / span;
+  return s;
+}
+
+SimulationResult simulate_recorded_run(const JointModelAtPose& model, const Controller& controller,
+                                       const RunData& run, const InitialState& initial,
+                                       const SimulationOptions& options,
+                                       KnownInputUse known_inputs) {
+  SimulationResult bad;
+  if (run.size() == 0) {
+    bad.message = "the run has no samples";
+    return bad;
+  }
+  KnownInputSeries known;
+  if (known_inputs == KnownInputUse::kUse) {
+    try {
+      known = KnownInputSeries::of_run(run);
+    } catch (const Error& e) {
+      bad.message = e.what();
+      return bad;
+    }
+  }
+  const SampledReference reference(run.t, run.r);
+  return simulate(model, controller, reference, run.t, initial, options, known);
+}
+
+}  // namespace alphainv

@@ -1,0 +1,117 @@
+// Tests of include/alphainv/simulate/recorded_run.hpp: runs of the virtual plant with known
+// disturbance pulses and the motor switched off part of the time, simulated back with the plant's
+// own model — with the known inputs the simulation is the run (ground truth), without them it is
+// not.
+#include "alphainv/simulate/recorded_run.hpp"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "alphainv/simulate/reference.hpp"
+#include "alphainv/simulate/virtual_omni.hpp"
+
+namespace alphainv {
+namespace {
+
+double rms_difference(const std::vector<double>& a, const std::vector<double>& b) {
+  double ss = 0.0;
+  for (std::size_t k = 0; k < a.size(); ++k) ss += (a[k] - b[k]) * (a[k] - b[k]);
+  return std::sqrt(ss / static_cast<double>(a.size()));
+}
+
+struct PlantRun {
+  VirtualOmniParams params;
+  Controller controller;
+  RunData data;
+  JointModelAtPose model;
+};
+
+/// A 4 s run at 2 Hz of the plant (paper models, Coulomb friction), noise-free, with ±`pulse_v`
+/// pulses of 0.1 s every 0.7 s and, when `motor_off`, the motor off in [2.0, 2.3) s.
+PlantRun plant_run(double pulse_v, bool motor_off) {
+  PlantRun p;
+  p.params.effects.coulomb_v = 0.004;
+  p.controller.kp = 2.0;
+  VirtualOmni omni(p.params);
+  ClosedLoopOptions o;
+  o.disturbance_v = [pulse_v](double t) {
+    const double phase = std::fmod(t, 0.7);
+    return phase >= 0.3 && phase < 0.4 ? (std::fmod(t, 1.4) < 0.7 ? pulse_v : -pulse_v) : 0.0;
+  };
+  if (motor_off) o.torque_enable = [](double t) { return !(t >= 2.0 && t < 2.3); };
+  const SineReference ref(0.07, 2.0);
+  p.data = run_closed_loop(omni, p.controller, ref, 4.0, o);
+  p.model.use_alpha = true;
+  p.model.inertia = omni.inertia();
+  p.model.alpha = p.params.alpha_model;
+  p.model.c_linear = p.params.alpha_model.damping(0.0, p.model.inertia);
+  p.model.beta_tilde_linear = p.params.alpha_model.beta_tilde(0.0, p.model.inertia);
+  p.model.effects = p.params.effects;
+  return p;
+}
+
+TEST(RecordedRun, WithItsKnownInputsTheDigitalLoopIsTheRun) {
+  const PlantRun p = plant_run(0.05, true);
+  ASSERT_NE(p.data.column("disturbance_v"), nullptr);
+  ASSERT_NE(p.data.column("torque_enable"), nullptr);
+  SimulationOptions so;
+  so.loop_period_s = p.params.tick_period_s;
+  const InitialState x0(p.data.theta[0], 0.0);  // the plant starts at rest
+  const SimulationResult with = simulate_recorded_run(p.model, p.controller, p.data, x0, so);
+  ASSERT_TRUE(with.ok) << with.message;
+  ASSERT_EQ(with.theta.size(), p.data.size());
+  // The same plant, controller, reference and inputs: equal to rounding.
+  EXPECT_LT(rms_difference(with.theta, p.data.theta), 1e-12);
+  EXPECT_LT(rms_difference(with.v, p.data.v), 1e-10);
+  const SimulationResult without =
+      simulate_recorded_run(p.model, p.controller, p.data, x0, so, KnownInputUse::kIgnore);
+  ASSERT_TRUE(without.ok) << without.message;
+  EXPECT_GT(rms_difference(without.theta, p.data.theta), 1e-3);  // pulses of 0.05 V are visible
+}
+
+TEST(RecordedRun, TheContinuousSimulatorHoldsTheKnownInputsOverEachSample) {
+  const SimulationOptions so;  // RK4 on the continuous law (43), not the plant's sampled loop
+  // Without pulses, what is left is the continuous law against the sampled one and the plant's
+  // α filter lag (7.8e-4 rad at kp = 2, 2 Hz).
+  const PlantRun calm = plant_run(0.0, false);
+  const InitialState x0(calm.data.theta[0], 0.0);
+  const double floor =
+      rms_difference(simulate_recorded_run(calm.model, calm.controller, calm.data, x0, so).theta,
+                     calm.data.theta);
+  EXPECT_LT(floor, 1.5e-3);
+  for (double pulse_v : {0.03, 0.1}) {
+    const PlantRun p = plant_run(pulse_v, false);
+    const SimulationResult with = simulate_recorded_run(p.model, p.controller, p.data, x0, so);
+    const SimulationResult without =
+        simulate_recorded_run(p.model, p.controller, p.data, x0, so, KnownInputUse::kIgnore);
+    ASSERT_TRUE(with.ok && without.ok) << with.message << without.message;
+    const double e_with = rms_difference(with.theta, p.data.theta);
+    const double e_without = rms_difference(without.theta, p.data.theta);
+    EXPECT_LT(e_with, 3.0 * floor) << pulse_v;  // the pulses are followed: near the floor
+    EXPECT_GT(e_without, 4.0 * e_with) << pulse_v;
+  }
+}
+
+TEST(RecordedRun, AMotorSwitchedOffIsFreeMotion) {
+  const PlantRun p = plant_run(0.0, true);
+  SimulationOptions so;
+  so.loop_period_s = p.params.tick_period_s;
+  const InitialState x0(p.data.theta[0], 0.0);
+  const SimulationResult with = simulate_recorded_run(p.model, p.controller, p.data, x0, so);
+  ASSERT_TRUE(with.ok) << with.message;
+  EXPECT_LT(rms_difference(with.theta, p.data.theta), 1e-12);
+  const SimulationResult without =
+      simulate_recorded_run(p.model, p.controller, p.data, x0, so, KnownInputUse::kIgnore);
+  EXPECT_GT(rms_difference(without.theta, p.data.theta), 1e-3);
+}
+
+TEST(RecordedRun, AnEmptyRunSaysSo) {
+  const SimulationResult s =
+      simulate_recorded_run(JointModelAtPose{}, Controller{}, RunData{}, InitialState{}, {});
+  EXPECT_FALSE(s.ok);
+  EXPECT_NE(s.message.find("no samples"), std::string::npos) << s.message;
+}
+
+}  // namespace
+}  // namespace alphainv
