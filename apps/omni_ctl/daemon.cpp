@@ -17,6 +17,7 @@
 #include <cmath>
 #include <cstring>
 #include <deque>
+#include <exception>
 #include <filesystem>
 #include <map>
 #include <mutex>
@@ -28,6 +29,8 @@
 #include "alphainv/device/loop_runner.hpp"
 #include "alphainv/error.hpp"
 #include "options.hpp"
+#include "protocol.hpp"
+#include "socket.hpp"
 
 namespace omni_ctl {
 namespace {
@@ -37,80 +40,24 @@ using json = nlohmann::json;
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
-constexpr std::size_t kMaxMessageBytes = 4096;  ///< one request line, newline excluded
+using protocol::error_reply;
+using protocol::Request;
 constexpr int kMaxClients = 16;
 
 struct Client {
   int fd = -1;
-  std::string in;          // bytes received, not yet a whole line
-  double stream_hz = 0.0;  // 0: no state stream
+  protocol::LineFramer in;  // bytes received, not yet a whole line
+  double stream_hz = 0.0;   // 0: no state stream
   Clock::time_point next_state{};
   bool close_after_write = false;
 };
 
-/// Sends one JSON line without blocking; false when the client must be dropped.
+/// Sends one JSON line (sanitised: protocol::to_line never throws) without blocking; false when
+/// the client must be dropped.
 bool send_line(Client& c, const json& j) {
-  const std::string line = j.dump() + "\n";
+  const std::string line = protocol::to_line(j);
   const ssize_t n = send(c.fd, line.data(), line.size(), MSG_DONTWAIT | MSG_NOSIGNAL);
   return n == static_cast<ssize_t>(line.size());
-}
-
-json error_reply(const std::string& message) { return {{"ok", false}, {"error", message}}; }
-
-/// The number at `key` of `msg`, or `fallback` when absent; throws Error naming the key.
-double number_field(const json& msg, const char* key, double fallback, double lo, double hi) {
-  if (!msg.contains(key)) return fallback;
-  const json& v = msg.at(key);
-  if (!v.is_number()) throw Error("expected a number, got " + v.dump(), {}, 0, key);
-  const double x = v.get<double>();
-  if (!std::isfinite(x) || x < lo || x > hi) {
-    throw Error("expected " + std::to_string(lo) + " <= value <= " + std::to_string(hi) + ", got " +
-                    v.dump(),
-                {}, 0, key);
-  }
-  return x;
-}
-
-/// Creates the socket's folder 0700 (or checks an existing one is ours and private).
-void prepare_socket_dir(const fs::path& dir) {
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec) throw Error("cannot create the socket folder: " + ec.message(), dir.string());
-  struct stat st {};
-  if (stat(dir.c_str(), &st) != 0) throw Error(std::strerror(errno), dir.string());
-  if (st.st_uid != geteuid()) {
-    throw Error("the socket folder belongs to uid " + std::to_string(st.st_uid) + ", not us",
-                dir.string());
-  }
-  if (chmod(dir.c_str(), 0700) != 0) throw Error(std::strerror(errno), dir.string());
-}
-
-int listen_on(const std::string& path) {
-  sockaddr_un addr{};
-  if (path.size() >= sizeof addr.sun_path) throw Error("socket path too long", path);
-  prepare_socket_dir(fs::path(path).parent_path());
-  // A socket file with nobody behind it is stale; one with a daemon behind it is not ours.
-  if (fs::exists(path)) {
-    const int probe = connect_daemon(path);
-    if (probe >= 0) {
-      close(probe);
-      throw Error("another omni_ctl daemon is already listening here", path);
-    }
-    fs::remove(path);
-  }
-  const int fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
-  if (fd < 0) throw Error(std::strerror(errno), path);
-  addr.sun_family = AF_UNIX;
-  std::strncpy(addr.sun_path, path.c_str(), sizeof addr.sun_path - 1);
-  const mode_t old = umask(0077);
-  const int rc = bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr);
-  umask(old);
-  if (rc != 0 || chmod(path.c_str(), 0600) != 0 || listen(fd, 8) != 0) {
-    const std::string why = std::strerror(errno);
-    close(fd);
-    throw Error("cannot listen: " + why, path);
-  }
-  return fd;
 }
 
 json state_json(const rt::TickRecord& r) {
@@ -133,14 +80,28 @@ class Server {
   /// Serves `runner`, set up from `setup`, until `stop` turns true (a signal).
   Server(const Options& opt, device::LoopRunner& runner, const LoopSetup& setup,
          const std::atomic<bool>& stop)
-      : opt_(opt), runner_(runner), setup_(setup), stop_(stop) {}
+      : opt_(opt), runner_(runner), setup_(setup), stop_(stop) {
+    if (pipe2(wake_, O_CLOEXEC | O_NONBLOCK) != 0) wake_[0] = wake_[1] = -1;
+  }
+  ~Server() {
+    for (int fd : wake_) {
+      if (fd >= 0) close(fd);
+    }
+  }
+  Server(const Server&) = delete;
+  Server& operator=(const Server&) = delete;
 
   /// What the loop thread obtained: SCHED_FIFO or not (the `status` reply's `realtime`).
   void set_realtime(bool fifo) { realtime_.store(fifo); }
 
   void on_run_done(const device::RunResult& r) {
-    std::lock_guard<std::mutex> lock(done_mutex_);
-    done_.push_back(r);
+    {
+      std::lock_guard<std::mutex> lock(done_mutex_);
+      done_.push_back(r);
+    }
+    // Wake serve()'s poll, so the result goes out now rather than at its next timeout.
+    const char byte = 1;
+    if (wake_[1] >= 0) (void)!write(wake_[1], &byte, 1);
   }
 
   /// Serves until `loop_running` turns false or a stop is requested.
@@ -148,6 +109,7 @@ class Server {
     while (loop_running.load() && !stop_.load()) {
       std::vector<pollfd> fds;
       fds.push_back({listen_fd, POLLIN, 0});
+      fds.push_back({wake_[0], POLLIN, 0});  // a run finished (poll ignores fd −1)
       for (const Client& c : clients_) fds.push_back({c.fd, POLLIN, 0});
       const int timeout_ms = next_timeout_ms();
       const int n = poll(fds.data(), fds.size(), timeout_ms);
@@ -156,7 +118,12 @@ class Server {
         break;
       }
       if (n > 0 && (fds[0].revents & POLLIN)) accept_clients(listen_fd);
-      for (std::size_t i = 1; i < fds.size(); ++i) {
+      if (n > 0 && (fds[1].revents & POLLIN)) {
+        char drain[64];
+        while (read(wake_[0], drain, sizeof drain) > 0) {
+        }
+      }
+      for (std::size_t i = 2; i < fds.size(); ++i) {
         if (fds[i].revents & (POLLIN | POLLHUP | POLLERR)) read_client(fds[i].fd);
       }
       drop_closed();
@@ -233,23 +200,25 @@ class Server {
       }
       if (n < 0) break;
       c->in.append(buf, static_cast<std::size_t>(n));
-      std::size_t nl;
-      while ((nl = c->in.find('\n')) != std::string::npos) {
-        std::string line = c->in.substr(0, nl);
-        c->in.erase(0, nl + 1);
-        if (line.size() > kMaxMessageBytes) {
-          reply(*c, error_reply("message too long: " + std::to_string(line.size()) +
-                                " bytes, the limit is " + std::to_string(kMaxMessageBytes)));
+      std::string line;
+      std::size_t length = 0;
+      for (;;) {
+        const auto next = c->in.next(line, length);
+        if (next == protocol::LineFramer::Next::kNone) break;
+        if (next == protocol::LineFramer::Next::kTooLong) {
+          reply(*c, error_reply("message too long: " + std::to_string(length) +
+                                " bytes, the limit is " +
+                                std::to_string(protocol::kMaxMessageBytes)));
           continue;
         }
+        if (next == protocol::LineFramer::Next::kOverflow) {
+          // No newline within the limit: answer once, then drop the connection.
+          reply(*c, error_reply("message too long: no newline within " +
+                                std::to_string(protocol::kMaxMessageBytes) + " bytes; closing"));
+          c->close_after_write = true;
+          return;
+        }
         handle(*c, line);
-      }
-      if (c->in.size() > kMaxMessageBytes) {
-        // No newline within the limit: answer once, then drop the connection.
-        reply(*c, error_reply("message too long: no newline within " +
-                              std::to_string(kMaxMessageBytes) + " bytes; closing"));
-        c->close_after_write = true;
-        return;
       }
     }
   }
@@ -259,100 +228,97 @@ class Server {
   }
 
   void handle(Client& c, const std::string& line) {
-    json msg;
-    try {
-      msg = json::parse(line);
-    } catch (const json::exception& e) {
-      reply(c, error_reply(std::string("malformed JSON: ") + e.what()));
+    protocol::RequestLimits limits;
+    limits.kp_max = runner_.config().kp_max;
+    const protocol::ParsedRequest parsed = protocol::parse_request(line, limits);
+    if (!parsed.request) {
+      reply(c, error_reply(parsed.error));
       return;
     }
-    if (!msg.is_object() || !msg.contains("cmd") || !msg["cmd"].is_string()) {
-      reply(c, error_reply("expected an object with a string \"cmd\""));
-      return;
-    }
-    const std::string cmd = msg["cmd"].get<std::string>();
+    const Request& r = *parsed.request;
     try {
-      if (cmd == "status") {
-        reply(c, {{"ok", true},
-                  {"cmd", "status"},
-                  {"kp", runner_.kp()},
-                  {"running", runner_.running_waveform()},
-                  {"ticks", runner_.ticks()},
-                  {"deadline_misses", runner_.deadline_misses()},
-                  {"realtime", realtime_.load()},
-                  {"device", setup_.transport->describe()},
-                  {"model", setup_.model_source},
-                  {"max_command_v", runner_.config().safety.max_command_v},
-                  {"kp_max", runner_.config().kp_max}});
-      } else if (cmd == "gains") {
-        if (!msg.contains("kp")) throw Error("missing", {}, 0, "kp");
-        const double kp = number_field(msg, "kp", 0.0, 0.0, runner_.config().kp_max);
-        device::LoopCommand lc;
-        lc.kind = device::LoopCommand::Kind::kSetKp;
-        lc.kp = kp;
-        if (!runner_.post(lc)) throw Error("the loop's command queue is full; retry");
-        reply(c, {{"ok", true}, {"cmd", "gains"}, {"kp", kp}});
-      } else if (cmd == "stream") {
-        c.stream_hz = number_field(msg, "rate_hz", 0.0, 0.0, 1000.0);
-        c.next_state = Clock::now();
-        reply(c, {{"ok", true}, {"cmd", "stream"}, {"rate_hz", c.stream_hz}});
-      } else if (cmd == "stop") {
-        device::LoopCommand lc;
-        lc.kind = device::LoopCommand::Kind::kStop;
-        if (!runner_.post(lc)) throw Error("the loop's command queue is full; retry");
-        reply(c, {{"ok", true}, {"cmd", "stop"}});
-      } else if (cmd == "run") {
-        start_run(c, msg);
-      } else {
-        reply(c,
-              error_reply("unknown cmd '" + cmd + "' (known: run, gains, stream, stop, status)"));
+      switch (r.cmd) {
+        case Request::Cmd::kStatus:
+          reply(c, status_reply());
+          break;
+        case Request::Cmd::kGains: {
+          device::LoopCommand lc;
+          lc.kind = device::LoopCommand::Kind::kSetKp;
+          lc.kp = r.kp;
+          if (!runner_.post(lc)) throw Error("the loop's command queue is full; retry");
+          reply(c, {{"ok", true}, {"cmd", "gains"}, {"kp", r.kp}});
+          break;
+        }
+        case Request::Cmd::kStream:
+          c.stream_hz = r.rate_hz;
+          c.next_state = Clock::now();
+          reply(c, {{"ok", true}, {"cmd", "stream"}, {"rate_hz", c.stream_hz}});
+          break;
+        case Request::Cmd::kStop: {
+          device::LoopCommand lc;
+          lc.kind = device::LoopCommand::Kind::kStop;
+          if (!runner_.post(lc)) throw Error("the loop's command queue is full; retry");
+          reply(c, {{"ok", true}, {"cmd", "stop"}});
+          break;
+        }
+        case Request::Cmd::kRun:
+          start_run(c, r);
+          break;
       }
-    } catch (const Error& e) {
-      reply(c, error_reply(e.what()));
-    } catch (const json::exception& e) {
+    } catch (const std::exception& e) {  // alphainv::Error, and anything a bug would throw
       reply(c, error_reply(e.what()));
     }
   }
 
-  void start_run(Client& c, const json& msg) {
-    if (!msg.contains("waveform") || !msg["waveform"].is_string()) {
-      throw Error("expected one of sine, square, step, hold", {}, 0, "waveform");
-    }
-    Options o = opt_;
-    const std::string name = msg["waveform"].get<std::string>();
-    o.wave = wave_from_name(name);
-    if (!o.wave) {
-      throw Error("expected one of sine, square, step, hold, got '" + name + "'", {}, 0,
-                  "waveform");
-    }
-    const bool periodic = is_periodic(*o.wave);
-    if (periodic && !msg.contains("freq_hz")) throw Error("missing for " + name, {}, 0, "freq_hz");
-    o.freq_hz = number_field(msg, "freq_hz", 0.0, periodic ? 1e-3 : 0.0, 100.0);
-    o.amplitude_rad = number_field(msg, "amplitude_rad", 0.07, 0.0, 1.0);
-    o.duration_s = number_field(msg, "duration_s", 10.0, 1e-3, 86400.0);
-    o.record_dir.clear();
-    if (msg.contains("record")) {
-      if (!msg["record"].is_string() || msg["record"].get<std::string>().empty() ||
-          msg["record"].get<std::string>()[0] != '/') {
-        throw Error("expected an absolute folder path", {}, 0, "record");
-      }
-      o.record_dir = msg["record"].get<std::string>();
-    }
+  json status_reply() const {
+    const rt::SafetyLimits& s = runner_.config().safety;
+    return {{"ok", true},
+            {"cmd", "status"},
+            {"kp", runner_.kp()},
+            {"running", runner_.running_waveform()},
+            {"ticks", runner_.ticks()},
+            {"deadline_misses", runner_.deadline_misses()},
+            {"realtime", realtime_.load()},
+            {"device", setup_.transport->describe()},
+            {"model", setup_.model_source},
+            {"max_command_v", s.max_command_v},
+            {"max_slew_v_per_s", s.max_slew_v_per_s},
+            {"theta_limit_rad", s.theta_limit_rad},
+            {"stall_periods", s.stall_periods},
+            {"max_missed", s.max_missed_deadlines},
+            {"kp_max", runner_.config().kp_max}};
+  }
+
+  void start_run(Client& c, const Request& r) {
     if (!owner_.empty() || runner_.running_waveform()) {
       throw Error("a run is in progress; send stop first", {}, 0, "cmd");
     }
+    // The waveform is centred on the angle now (the loop holds it while idle): refuse a
+    // reference the angle limit would end with a fault.
+    rt::TickRecord now;
+    if (runner_.latest(now)) latest_ = now;
+    const std::string beyond = protocol::reference_beyond_limit(
+        r.wave, r.amplitude_rad, latest_.theta_rad, runner_.config().safety.theta_limit_rad);
+    if (!beyond.empty()) throw Error(beyond);
+    Options o = opt_;
+    o.wave = r.wave;
+    o.freq_hz = r.freq_hz;
+    o.amplitude_rad = r.amplitude_rad;
+    o.duration_s = r.duration_s;
+    o.record_dir = r.record;
     const std::uint32_t id = ++last_run_id_;
     const device::LoopCommand run = make_run_command(o, id);
     if (!o.record_dir.empty()) {
-      o.command_line = msg.contains("command_line") && msg["command_line"].is_string()
-                           ? msg["command_line"].get<std::string>()
-                           : "omni_ctl --daemon: " + msg.dump();
+      o.command_line = !r.command_line.empty()
+                           ? r.command_line
+                           : std::string("omni_ctl --daemon: run ") + wave_name(r.wave);
       runner_.add_recording(id, make_recording(o, run, setup_));
     }
     if (!runner_.post(run)) throw Error("the loop's command queue is full; retry");
     owner_[id] = c.fd;
-    spdlog::info("run {}: {} {} Hz, {} rad, {} s{}", id, name, o.freq_hz, o.amplitude_rad,
-                 o.duration_s, o.record_dir.empty() ? "" : ", recording to " + o.record_dir);
+    spdlog::info("run {}: {} {} Hz, {} rad, {} s{}", id, wave_name(r.wave), o.freq_hz,
+                 o.amplitude_rad, o.duration_s,
+                 o.record_dir.empty() ? "" : ", recording to " + o.record_dir);
     reply(c, {{"ok", true}, {"cmd", "run"}, {"run_id", id}});
   }
 
@@ -416,24 +382,11 @@ class Server {
   std::uint32_t last_run_id_ = 0;
   std::mutex done_mutex_;
   std::deque<device::RunResult> done_;
+  int wake_[2] = {-1, -1};  ///< self-pipe: the writer thread wakes serve() when a run is done
   rt::TickRecord latest_;
 };
 
 }  // namespace
-
-int connect_daemon(const std::string& path) {
-  sockaddr_un addr{};
-  if (path.size() >= sizeof addr.sun_path) return -1;
-  const int fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  if (fd < 0) return -1;
-  addr.sun_family = AF_UNIX;
-  std::strncpy(addr.sun_path, path.c_str(), sizeof addr.sun_path - 1);
-  if (connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
-    close(fd);
-    return -1;
-  }
-  return fd;
-}
 
 ExitCode run_daemon(const Options& opt, std::atomic<bool>& stop) {
   auto logger = spdlog::stderr_color_mt("omni_ctl");
@@ -448,10 +401,11 @@ ExitCode run_daemon(const Options& opt, std::atomic<bool>& stop) {
   }
   if (!setup.model_note.empty()) spdlog::warn("{}", setup.model_note);
   device::Transport& transport = *setup.transport;
-  int listen_fd = -1;
+  SocketLock lock;  // one daemon per socket, held until this function returns
+  Listener listener;
   try {
-    listen_fd = listen_on(opt.socket_path);
-  } catch (const Error& e) {
+    listener = listen_on(opt.socket_path, lock);
+  } catch (const std::exception& e) {  // alphainv::Error, std::filesystem::filesystem_error
     spdlog::error("{}", e.what());
     return ExitCode::kDevice;
   }
@@ -459,8 +413,7 @@ ExitCode run_daemon(const Options& opt, std::atomic<bool>& stop) {
     transport.open();
   } catch (const Error& e) {
     spdlog::error("{}", e.what());
-    close(listen_fd);
-    unlink(opt.socket_path.c_str());
+    listener.close_and_unlink();
     return ExitCode::kDevice;
   }
 
@@ -484,7 +437,11 @@ ExitCode run_daemon(const Options& opt, std::atomic<bool>& stop) {
     outcome = runner.run(stop);
     loop_running.store(false);
   });
-  server->serve(listen_fd, loop_running);
+  try {
+    server->serve(listener.fd, loop_running);
+  } catch (const std::exception& e) {  // a bug, not a client: end the loop safely, say why
+    spdlog::critical("the server failed ({}); stopping the loop", e.what());
+  }
   stop.store(true);  // the server ended (signal or loop end): stop the loop too
   loop_thread.join();
   transport.close();
@@ -497,21 +454,74 @@ ExitCode run_daemon(const Options& opt, std::atomic<bool>& stop) {
     spdlog::info("{}", outcome.brief_report());
   }
   server->broadcast_end(end);
-  close(listen_fd);
-  unlink(opt.socket_path.c_str());
+  listener.close_and_unlink();
   spdlog::info("timing: {}", outcome.timing.to_text());
   return outcome.usable() ? ExitCode::kOk : ExitCode::kFailed;
 }
 
+namespace {
+
+/// The daemon's value of loop option `name` in its status reply (as text), or empty when the
+/// client cannot compare it (device, faults, scheduling: the daemon's own, always refused).
+std::string daemon_value(const json& status, const std::string& name) {
+  static const std::map<std::string, const char*> keys = {
+      {"--max-command", "max_command_v"},    {"--max-slew", "max_slew_v_per_s"},
+      {"--theta-limit", "theta_limit_rad"},  {"--stall-periods", "stall_periods"},
+      {"--max-missed", "max_missed"},        {"--model", "model"}};
+  const auto it = keys.find(name);
+  if (it == keys.end() || !status.contains(it->second)) return {};
+  const json& v = status[it->second];
+  if (v.is_string()) return v.get<std::string>();
+  return v.is_number() ? v.dump() : std::string();  // dumping a number cannot throw
+}
+
+/// This client's value of loop option `name`, as the daemon's status would spell it.
+std::string client_value(const Options& opt, const std::string& name) {
+  const rt::SafetyLimits& s = opt.safety;
+  const auto num = [](auto x) { return json(x).dump(); };
+  if (name == "--max-command") return num(s.max_command_v);
+  if (name == "--max-slew") return num(s.max_slew_v_per_s);
+  if (name == "--theta-limit") return num(s.theta_limit_rad);
+  if (name == "--stall-periods") return num(s.stall_periods);
+  if (name == "--max-missed") return num(s.max_missed_deadlines);
+  if (name == "--model") return opt.model_path;
+  return {};
+}
+
+/// Why the daemon cannot honour the loop options this client was given, or empty.
+std::string unhonoured_options(const Options& opt, const json& status) {
+  std::string out;
+  for (const std::string& name : opt.loop_options_given) {
+    const std::string theirs = daemon_value(status, name);
+    const std::string ours = client_value(opt, name);
+    if (!theirs.empty() && theirs == ours) continue;  // the daemon runs with just this value
+    if (!out.empty()) out += ", ";
+    out += name + (ours.empty() ? "" : " " + ours) +
+           (theirs.empty() ? " (the daemon's own)" : " (the daemon uses " + theirs + ")");
+  }
+  return out;
+}
+
+}  // namespace
+
 ExitCode run_client(int fd, const Options& opt, const std::atomic<bool>& stop) {
+  using Steady = std::chrono::steady_clock;
   auto send_json = [fd](const json& j) {
-    const std::string line = j.dump() + "\n";
+    const std::string line = protocol::to_line(j);
     return send(fd, line.data(), line.size(), MSG_NOSIGNAL) == static_cast<ssize_t>(line.size());
   };
+  auto leave = [fd](ExitCode code) {
+    close(fd);
+    return code;
+  };
+  enum class Read { kLine, kClosed, kCancelled, kNoAnswer };
   std::string buffer;
-  // Reads one line (blocking, but wakes every 50 ms to notice a signal). Empty: connection gone.
+  bool run_sent = false;  // from then on a signal sends stop instead of leaving
   bool stop_sent = false;
-  auto read_line = [&](json& out) -> bool {
+  Steady::time_point stop_deadline{};
+  // Reads one JSON line, waking every 50 ms to notice a signal: before the run was sent, a signal
+  // cancels at once (nothing was started); after, it sends stop and waits at most 3 s.
+  auto read_line = [&](json& out) -> Read {
     for (;;) {
       const auto nl = buffer.find('\n');
       if (nl != std::string::npos) {
@@ -519,43 +529,76 @@ ExitCode run_client(int fd, const Options& opt, const std::atomic<bool>& stop) {
         buffer.erase(0, nl + 1);
         try {
           out = json::parse(line);
-          return true;
+          if (out.is_object()) return Read::kLine;
         } catch (const json::exception&) {
-          continue;
         }
+        continue;
       }
-      if (stop.load() && !stop_sent) {
-        stop_sent = true;
-        send_json({{"cmd", "stop"}});
+      if (stop.load()) {
+        if (!run_sent) return Read::kCancelled;
+        if (!stop_sent) {
+          stop_sent = true;
+          stop_deadline = Steady::now() + std::chrono::seconds(3);
+          (void)send_json({{"cmd", "stop"}});
+        } else if (Steady::now() > stop_deadline) {
+          return Read::kNoAnswer;
+        }
       }
       pollfd p{fd, POLLIN, 0};
       if (poll(&p, 1, 50) <= 0) continue;
       char buf[4096];
       const ssize_t n = recv(fd, buf, sizeof buf, 0);
-      if (n <= 0) return false;
+      if (n <= 0) return Read::kClosed;
       buffer.append(buf, static_cast<std::size_t>(n));
     }
   };
-  auto expect_ok = [&](const char* what) {
-    json r;
-    while (read_line(r)) {
-      if (r.contains("ok")) {
-        if (!r["ok"].get<bool>()) {
-          std::fprintf(stderr, "omni_ctl: daemon refused %s: %s\n", what,
-                       r.value("error", std::string("?")).c_str());
-          return false;
-        }
-        return true;
-      }
+  auto say_why = [&](Read why) {
+    if (why == Read::kCancelled) {
+      std::fprintf(stderr, "omni_ctl: cancelled before the run was sent; nothing was started\n");
+      return ExitCode::kOk;
     }
-    std::fprintf(stderr, "omni_ctl: the daemon closed the connection\n");
-    return false;
+    if (why == Read::kNoAnswer) {
+      std::fprintf(stderr,
+                   "omni_ctl: the daemon did not answer the stop within 3 s; the stop request is "
+                   "queued and ends the run as soon as the daemon reads it\n");
+    } else {
+      std::fprintf(stderr, "omni_ctl: the daemon closed the connection\n");
+    }
+    return ExitCode::kDevice;
+  };
+  // The reply to a request: true with `reply` when ok; else the exit code in `code`.
+  auto expect_ok = [&](const char* what, json& reply, ExitCode& code) {
+    for (;;) {
+      const Read got = read_line(reply);
+      if (got != Read::kLine) {
+        code = say_why(got);
+        return false;
+      }
+      if (!reply.contains("ok")) continue;  // an event
+      if (reply["ok"] == true) return true;
+      const json& err = reply.contains("error") ? reply["error"] : json("?");
+      std::fprintf(stderr, "omni_ctl: the daemon refused %s: %s\n", what,
+                   err.is_string() ? err.get<std::string>().c_str() : protocol::to_line(err).c_str());
+      code = ExitCode::kBadInput;
+      return false;
+    }
   };
 
   std::fprintf(stderr, "omni_ctl: using the daemon at %s\n", opt.socket_path.c_str());
-  if (!send_json({{"cmd", "gains"}, {"kp", opt.kp}}) || !expect_ok("the gain")) {
-    close(fd);
-    return ExitCode::kBadInput;
+  json reply;
+  ExitCode code = ExitCode::kOk;
+  if (!send_json({{"cmd", "status"}}) || !expect_ok("the status request", reply, code)) {
+    return leave(code);
+  }
+  if (const std::string why = unhonoured_options(opt, reply); !why.empty()) {
+    std::fprintf(stderr,
+                 "omni_ctl: the daemon at %s runs the loop with its own settings and cannot "
+                 "honour: %s; stop the daemon, or run here with --local\n",
+                 opt.socket_path.c_str(), why.c_str());
+    return leave(ExitCode::kBadInput);
+  }
+  if (!send_json({{"cmd", "gains"}, {"kp", opt.kp}}) || !expect_ok("the gain", reply, code)) {
+    return leave(code);
   }
   json run = {{"cmd", "run"},
               {"waveform", wave_name(opt.wave.value())},
@@ -564,32 +607,29 @@ ExitCode run_client(int fd, const Options& opt, const std::atomic<bool>& stop) {
               {"command_line", opt.command_line}};
   if (is_periodic(*opt.wave)) run["freq_hz"] = opt.freq_hz;
   if (!opt.record_dir.empty()) run["record"] = fs::absolute(opt.record_dir).string();
-  if (!send_json(run) || !expect_ok("the run")) {
-    close(fd);
-    return ExitCode::kBadInput;
-  }
-  if (opt.stream_hz > 0.0) send_json({{"cmd", "stream"}, {"rate_hz", opt.stream_hz}});
+  if (stop.load()) return leave(say_why(Read::kCancelled));
+  run_sent = true;
+  if (!send_json(run) || !expect_ok("the run", reply, code)) return leave(code);
+  if (opt.stream_hz > 0.0) (void)send_json({{"cmd", "stream"}, {"rate_hz", opt.stream_hz}});
   json ev;
-  ExitCode code = ExitCode::kDevice;
-  while (read_line(ev)) {
-    const std::string kind = ev.value("event", std::string());
+  for (;;) {
+    const Read got = read_line(ev);
+    if (got != Read::kLine) return leave(say_why(got));
+    const json kind = ev.contains("event") ? ev["event"] : json();
     if (kind == "state") {
-      std::printf("%s\n", ev.dump().c_str());
+      std::printf("%s", protocol::to_line(ev).c_str());
       std::fflush(stdout);
     } else if (kind == "run_done") {
-      std::fprintf(stderr, "omni_ctl: run done: %s\n", ev.dump().c_str());
+      std::fprintf(stderr, "omni_ctl: run done: %s", protocol::to_line(ev).c_str());
       code = ExitCode::kOk;
-      if (!ev["fault"].is_null()) code = ExitCode::kFailed;
+      if (ev.contains("fault") && !ev["fault"].is_null()) code = ExitCode::kFailed;
       if (ev.contains("recording_error")) code = ExitCode::kRecording;
-      break;
+      return leave(code);
     } else if (kind == "daemon_exit") {
-      std::fprintf(stderr, "omni_ctl: the daemon stopped: %s\n", ev.dump().c_str());
-      code = ev.contains("fault") ? ExitCode::kFailed : ExitCode::kDevice;
-      break;
+      std::fprintf(stderr, "omni_ctl: the daemon stopped: %s", protocol::to_line(ev).c_str());
+      return leave(ev.contains("fault") ? ExitCode::kFailed : ExitCode::kDevice);
     }
   }
-  close(fd);
-  return code;
 }
 
 }  // namespace omni_ctl

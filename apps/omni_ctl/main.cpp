@@ -12,10 +12,13 @@
 #include <cstdio>
 #include <string>
 
+#include "alphainv/device/emergency_stop.hpp"
 #include "alphainv/device/loop_runner.hpp"
 #include "alphainv/error.hpp"
 #include "apps/common/units.hpp"
 #include "options.hpp"
+#include "protocol.hpp"
+#include "socket.hpp"
 
 namespace {
 
@@ -44,11 +47,22 @@ ExitCode fail(ExitCode code, const std::string& message) {
   return code;
 }
 
+/// The command line as text for dataset.json and the daemon: bytes that are not UTF-8 (a Latin-1
+/// path) become U+FFFD, so the JSON that carries it can always be written.
 std::string command_line(int argc, char** argv) {
   std::string out = "omni_ctl";
   for (int i = 1; i < argc; ++i) out += std::string(" ") + argv[i];
-  return out;
+  return protocol::sanitize_utf8(out);
 }
+
+/// The loop options (docs/omni_ctl.md) a daemon runs with its own values of.
+constexpr const char* kLoopOptions[] = {"--max-command", "--max-slew",    "--theta-limit",
+                                        "--stall-periods", "--max-missed", "--sim-fault",
+                                        "--device",      "--model",       "--rt-priority",
+                                        "--no-mlock"};
+
+/// Runs `opt` on the daemon at its socket when one listens there and can be trusted, else here.
+ExitCode run_here_or_on_daemon(const Options& opt, const std::atomic<bool>& stop);
 
 ExitCode run_local(const Options& opt, const std::atomic<bool>& stop) {
   LoopSetup setup;
@@ -101,6 +115,20 @@ ExitCode run_local(const Options& opt, const std::atomic<bool>& stop) {
   if (!outcome.usable()) return ExitCode::kFailed;
   if (recorded && (!have_result || !result.usable())) return ExitCode::kRecording;
   return ExitCode::kOk;
+}
+
+ExitCode run_here_or_on_daemon(const Options& opt, const std::atomic<bool>& stop) {
+  if (opt.local) return run_local(opt, stop);
+  const Connection daemon = connect_daemon(opt.socket_path);
+  if (!daemon.error.empty()) return fail(ExitCode::kDevice, daemon.error);
+  if (daemon.fd < 0) return run_local(opt, stop);
+  if (!protocol::is_valid_utf8(opt.record_dir)) {
+    close(daemon.fd);
+    return fail(ExitCode::kBadInput,
+                "--record: the path is not valid UTF-8, which the daemon protocol cannot carry; "
+                "use a UTF-8 path, or --local to record here");
+  }
+  return run_client(daemon.fd, opt, stop);
 }
 
 }  // namespace
@@ -181,6 +209,9 @@ int main(int argc, char** argv) {
     if (!duration.empty()) opt.duration_s = apps::parse_duration_s(duration, "--duration");
     if (opt.freq_hz > 100.0)
       throw CLI::ValidationError("--sine/--square: expected a frequency up to 100 Hz");
+    for (const char* name : kLoopOptions) {
+      if (app.count(name) > 0) opt.loop_options_given.emplace_back(name);
+    }
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
@@ -197,6 +228,7 @@ int main(int argc, char** argv) {
   }
   if (opt.socket_path.empty()) opt.socket_path = default_socket_path();
   install_signal_handlers();
+  device::install_crash_handlers();  // a crash while the loop runs zeroes the motor first
 
   ExitCode code = ExitCode::kOk;
   if (opt.daemon) {
@@ -204,8 +236,7 @@ int main(int argc, char** argv) {
   } else if (!opt.wave) {
     code = fail(ExitCode::kUsage, "give a waveform: --sine FREQ, --square FREQ, --step or --hold");
   } else {
-    const int fd = opt.local ? -1 : connect_daemon(opt.socket_path);
-    code = fd >= 0 ? run_client(fd, opt, g_stop) : run_local(opt, g_stop);
+    code = run_here_or_on_daemon(opt, g_stop);
   }
   return apps::exit_status(code);
 }

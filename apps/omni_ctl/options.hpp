@@ -6,11 +6,13 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "alphainv/device/control_loop.hpp"
 #include "alphainv/device/loop_runner.hpp"
 #include "alphainv/device/transport.hpp"
 #include "apps/common/exit_code.hpp"
+#include "protocol.hpp"
 
 namespace omni_ctl {
 
@@ -37,16 +39,11 @@ struct Options {
   bool local = false;  // never talk to a daemon
   std::string socket_path;
   double stream_hz = 0.0;  // client: print state lines at this rate
-  std::string command_line;
+  std::string command_line;  ///< as typed, made valid UTF-8 (it goes into JSON)
+  /// The loop options given on the command line (--max-command, --sim-fault, …): a client
+  /// refuses to run on a daemon that cannot honour them.
+  std::vector<std::string> loop_options_given;
 };
-
-/// The name of a waveform in the daemon protocol and the messages: "sine", "square", "step",
-/// "hold".
-const char* wave_name(alphainv::rt::WaveKind kind);
-/// The waveform `name` names (the inverse of wave_name()), or none.
-std::optional<alphainv::rt::WaveKind> wave_from_name(const std::string& name);
-/// True for the waveforms that have a frequency (sine, square).
-bool is_periodic(alphainv::rt::WaveKind kind);
 
 /// What the loop runs with, built the same way by the single-run mode and the daemon.
 struct LoopSetup {
@@ -70,10 +67,9 @@ std::string default_socket_path();
 /// Runs the daemon (foreground) until `stop` turns true (a signal) or a fault; sets `stop` when
 /// it ends by itself.
 ExitCode run_daemon(const Options& opt, std::atomic<bool>& stop);
-/// Sends `opt`'s run to the daemon at `fd` (connected) and waits for it; when `stop` turns true
-/// (a signal), asks the daemon to stop the run.
+/// Sends `opt`'s run to the daemon at `fd` (connected, trusted) and waits for it. When `stop`
+/// turns true (a signal) before the run was sent, nothing is sent and the client leaves; after,
+/// it asks the daemon to stop the run and waits at most 3 s for the answer.
 ExitCode run_client(int fd, const Options& opt, const std::atomic<bool>& stop);
-/// Connects to the daemon socket; −1 when there is none.
-int connect_daemon(const std::string& path);
 
 }  // namespace omni_ctl

@@ -76,32 +76,6 @@ std::unique_ptr<device::Transport> make_transport(const Options& opt) {
 
 }  // namespace
 
-const char* wave_name(rt::WaveKind kind) {
-  switch (kind) {
-    case rt::WaveKind::kSine:
-      return "sine";
-    case rt::WaveKind::kSquare:
-      return "square";
-    case rt::WaveKind::kStep:
-      return "step";
-    case rt::WaveKind::kHold:
-      break;
-  }
-  return "hold";
-}
-
-std::optional<rt::WaveKind> wave_from_name(const std::string& name) {
-  for (rt::WaveKind k :
-       {rt::WaveKind::kSine, rt::WaveKind::kSquare, rt::WaveKind::kStep, rt::WaveKind::kHold}) {
-    if (name == wave_name(k)) return k;
-  }
-  return std::nullopt;
-}
-
-bool is_periodic(rt::WaveKind kind) {
-  return kind == rt::WaveKind::kSine || kind == rt::WaveKind::kSquare;
-}
-
 LoopSetup make_loop_setup(const Options& opt) {
   LoopSetup setup;
   setup.config = make_loop_config(opt, setup.model_source, setup.model_note);
@@ -125,9 +99,10 @@ device::RunRecording make_recording(const Options& opt, const device::LoopComman
   device::RunRecording rec;
   rec.dir = opt.record_dir;
   rec.wave = run.wave;
-  rec.command_line = opt.command_line;
-  rec.device = setup.transport->describe();
-  rec.model_source = setup.model_source;
+  // dataset.json is JSON: text that came from the command line is made valid UTF-8 here.
+  rec.command_line = protocol::sanitize_utf8(opt.command_line);
+  rec.device = protocol::sanitize_utf8(setup.transport->describe());
+  rec.model_source = protocol::sanitize_utf8(setup.model_source);
   return rec;
 }
 

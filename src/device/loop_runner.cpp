@@ -1,5 +1,7 @@
 #include "alphainv/device/loop_runner.hpp"
 
+#include "alphainv/device/emergency_stop.hpp"
+
 #include <fcntl.h>
 #include <pthread.h>
 #include <sched.h>
@@ -89,8 +91,17 @@ bool LoopRunner::wait_run(std::uint32_t run_id, double timeout_s, RunResult& out
   std::unique_lock<std::mutex> lock(mutex_);
   const bool ok = done_cv_.wait_for(lock, std::chrono::duration<double>(timeout_s),
                                     [&] { return results_.count(run_id) != 0; });
-  if (ok) out = results_[run_id];
+  if (ok) {
+    const auto it = results_.find(run_id);
+    out = std::move(it->second);
+    results_.erase(it);
+  }
   return ok;
+}
+
+std::size_t LoopRunner::kept_results() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return results_.size();
 }
 
 RealtimeSetup request_realtime(int priority, bool lock_memory) {
@@ -167,6 +178,10 @@ LoopOutcome LoopRunner::run(const std::atomic<bool>& stop) {
   bool stop_requested = false;
   double last_t_s = 0.0;
 
+  // From the first tick to the last report, a crash of the process zeroes the motor first
+  // (emergency_stop.hpp); this thread gets its own stack for the handler.
+  const AlternateSignalStack signal_stack;
+  arm_emergency_stop(transport_);
   const timespec start = now_mono();
   timespec deadline = start;
   // --- the tick: no allocation, no locks, no I/O but the device's -----------------------------
@@ -184,6 +199,7 @@ LoopOutcome LoopRunner::run(const std::atomic<bool>& stop) {
     rt::TickRecord rec = loop_.tick(t_s, in, missed, out);
     rec.deadlines_skipped = skipped;
     const IoStatus ws = transport_.write(out);
+    note_sequence(out.sequence);
     const timespec after_write = now_mono();
     if (ws != IoStatus::kOk) loop_.latch(rt::Fault::kDisconnected);
 
@@ -293,6 +309,7 @@ LoopOutcome LoopRunner::run(const std::atomic<bool>& stop) {
   }
   // --- end of the tick ---------------------------------------------------------------------
   (void)transport_.write(loop_.safe_report());  // zero, disabled: a second time on every exit
+  disarm_emergency_stop();
 
   outcome.fault = loop_.fault();
   outcome.fault_t_s = last_t_s;
@@ -364,6 +381,9 @@ void LoopRunner::finish_run(std::uint32_t run_id, const RecordItem& end_item) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     results_[run_id] = result;
+    // Bounded: the oldest results nobody waited for go (a daemon's runs are told through
+    // on_run_done; before this bound each one stayed for the process's life).
+    while (results_.size() > kKeptResults) results_.erase(results_.begin());
     partial_.erase(run_id);
   }
   done_cv_.notify_all();

@@ -9,6 +9,15 @@
 #include "drain.hpp"
 
 namespace alphainv::device {
+namespace {
+
+long long monotonic_ns() noexcept {
+  timespec t{};
+  clock_gettime(CLOCK_MONOTONIC, &t);
+  return static_cast<long long>(t.tv_sec) * 1'000'000'000LL + t.tv_nsec;
+}
+
+}  // namespace
 
 const char* to_string(IoStatus status) noexcept {
   switch (status) {
@@ -100,6 +109,10 @@ void VirtualDevice::queue_report() noexcept {
   in.encoder_counts[1] = scaling_.counts(1, deg_to_rad(plant_.params().gamma1_deg));
   in.encoder_counts[2] = scaling_.counts(2, deg_to_rad(plant_.params().gamma2_deg));
   in.status = kStatusMotorEnabled;
+  if (watchdog_report_) {
+    in.status = static_cast<std::uint16_t>(in.status | kStatusWatchdog);
+    watchdog_report_ = false;
+  }
   if (queue_size_ == kQueue) {  // the oldest report is lost, as in a full kernel buffer
     queue_head_ = (queue_head_ + 1) % kQueue;
     --queue_size_;
@@ -120,7 +133,16 @@ int VirtualDevice::write(const std::uint8_t* data, std::size_t len) noexcept {
   if (!entry.decoded) entry.report = OutputReport{};
   if (entry.fault_active && fault_.kind == SimFaultKind::kDisconnect) return -1;
   entry.delivered = true;
+  if (entry.decoded) {
+    const long long now = monotonic_ns();
+    if (last_valid_ns_ >= 0 && static_cast<double>(now - last_valid_ns_) > watchdog_s_ * 1e9) {
+      ++watchdog_trips_;
+      watchdog_report_ = true;
+    }
+    last_valid_ns_ = now;
+  }
   const double v = entry.report.enable ? scaling_.command_v(entry.report.dac_counts) : 0.0;
+  if (entry.decoded) last_v_ = v;
   plant_.step(v);
   queue_report();
   return static_cast<int>(len);
@@ -135,6 +157,15 @@ int VirtualDevice::read(std::uint8_t* buf, std::size_t len) noexcept {
   const std::size_t n = len < kInputReportSize ? len : kInputReportSize;
   for (std::size_t i = 0; i < n; ++i) buf[i] = slot[i];
   return static_cast<int>(n);
+}
+
+bool VirtualDevice::watchdog_tripped() const noexcept {
+  return last_valid_ns_ >= 0 &&
+         static_cast<double>(monotonic_ns() - last_valid_ns_) > watchdog_s_ * 1e9;
+}
+
+double VirtualDevice::applied_command_v() const noexcept {
+  return watchdog_tripped() ? 0.0 : last_v_;
 }
 
 std::vector<WrittenCommand> VirtualDevice::written() const {

@@ -4,7 +4,9 @@
 // reports that reached the device (zero and disabled within 2 ticks of detection), and that the
 // recording up to the fault reads back with the dataset reader.
 #include <gtest/gtest.h>
+#include <signal.h>
 #include <sys/resource.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <filesystem>
@@ -14,6 +16,7 @@
 
 #include "alphainv/data/dataset.hpp"
 #include "alphainv/data/model_file.hpp"
+#include "hid_double/hid_double_state.hpp"
 #include "support/subprocess.hpp"
 
 using namespace alphainv;
@@ -268,10 +271,32 @@ TEST(OmniCtl, WithoutRealtimePermissionItWarnsAndStillRuns) {
   struct rlimit rt {};
   getrlimit(RLIMIT_RTPRIO, &rt);
   if (rt.rlim_cur >= 80) GTEST_SKIP() << "RLIMIT_RTPRIO allows SCHED_FIFO 80 to anyone here";
-  Subprocess p({OMNI_CTL_BIN, "--joint", "yaw", "--local", "--sine", "3Hz", "--duration", "0.3s",
+  // The clone may sit in a folder nobody else can enter (root's 0700 home, mktemp -d): give uid
+  // 65534 its own copy of the binary in a folder it can reach (issue #13, finding 16).
+  const fs::path reach = temp_dir("nobody");
+  ASSERT_EQ(chmod(reach.c_str(), 0755), 0);
+  for (fs::path p = reach.parent_path(); !p.empty() && p != p.root_path(); p = p.parent_path()) {
+    struct stat st {};
+    if (stat(p.c_str(), &st) == 0 && (st.st_mode & 0001) == 0) {
+      GTEST_SKIP() << "uid 65534 cannot reach the temporary folder " << reach << " (" << p
+                   << " is closed to others)";
+    }
+  }
+  const fs::path bin = reach / "omni_ctl";
+  fs::copy_file(OMNI_CTL_BIN, bin);
+  ASSERT_EQ(chmod(bin.c_str(), 0755), 0);
+  Subprocess probe({bin.string(), "--help"}, {}, 65534);
+  const ProcessResult help = probe.wait(30.0);
+  if (help.exit_code != 0) {
+    fs::remove_all(reach);
+    GTEST_SKIP() << "the copied binary does not start as uid 65534 (exit " << help.exit_code
+                 << ": " << help.err.substr(0, 200) << "); a library it loads is out of reach";
+  }
+  Subprocess p({bin.string(), "--joint", "yaw", "--local", "--sine", "3Hz", "--duration", "0.3s",
                 "--device", "sim", "--socket", "/nonexistent/omni_ctl.sock"},
                {}, 65534);
   const ProcessResult r = p.wait(30.0);
+  fs::remove_all(reach);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.err.find("warning: SCHED_FIFO priority 80 refused"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("normal scheduler"), std::string::npos) << r.err;
@@ -316,5 +341,56 @@ TEST(OmniCtl, UsesTheModelFileForCAndBetaTilde) {
   std::stringstream json;
   json << f.rdbuf();
   EXPECT_NE(json.str().find("model.json"), std::string::npos);
+  fs::remove_all(dir);
+}
+
+TEST(OmniCtl, ACrashZeroesTheMotorBeforeTheProcessEnds) {
+  // std::terminate and each fatal signal, raised inside hid_read while the motor is driven (the
+  // hid double's ALPHAINV_HID_DOUBLE_CRASH): the last report the device received is 0 and
+  // disabled, and the process still dies of its signal. The double's state file is mapped
+  // MAP_SHARED, so it outlives the crashed process.
+  const fs::path dir = temp_dir("crash");
+  const struct {
+    const char* kind;
+    int signal;
+  } crashes[] = {{"terminate", SIGABRT}, {"segv", SIGSEGV}, {"abort", SIGABRT},
+                 {"bus", SIGBUS},        {"fpe", SIGFPE},   {"ill", SIGILL}};
+  for (const auto& c : crashes) {
+    SCOPED_TRACE(c.kind);
+    const fs::path state_file = dir / (std::string(c.kind) + ".state");
+    const ProcessResult r = run_process(
+        {OMNI_CTL_HID_DOUBLE_BIN, "--joint", "yaw", "--local", "--no-mlock", "--sine", "3Hz",
+         "--duration", "2s", "--device", "hid"},
+        {{"ALPHAINV_HID_DOUBLE_CRASH", std::string(c.kind) + "@0.3"},
+         {"ALPHAINV_HID_DOUBLE_STATE", state_file.string()}});
+    EXPECT_EQ(r.exit_code, 128 + c.signal) << r.err;
+    EXPECT_NE(r.err.find("a zero, disabled report was sent to the device"), std::string::npos)
+        << r.err;
+    test::HidDoubleState st;
+    std::ifstream f(state_file, std::ios::binary);
+    ASSERT_TRUE(f.read(reinterpret_cast<char*>(&st), sizeof st));
+    ASSERT_EQ(st.magic, test::HidDoubleState::kMagic);
+    EXPECT_GE(st.enabled_writes, 250u);  // the motor was driven for 0.3 s
+    EXPECT_EQ(st.last_decoded, 1);
+    EXPECT_EQ(st.last_enable, 0);
+    EXPECT_EQ(st.last_dac, 0);
+    // After the crash only the safe report (terminate: twice, then abort()'s SIGABRT handler).
+    EXPECT_GE(st.writes, st.enabled_writes + 1);
+    EXPECT_LE(st.writes, st.enabled_writes + 2);
+  }
+  // The daemon too: a crash on its loop thread, while it holds position between runs.
+  const fs::path state_file = dir / "daemon.state";
+  const ProcessResult r = run_process(
+      {OMNI_CTL_HID_DOUBLE_BIN, "--daemon", "--no-mlock", "--device", "hid", "--socket",
+       (dir / "run" / "omni_ctl.sock").string()},
+      {{"ALPHAINV_HID_DOUBLE_CRASH", "segv@0.5"}, {"ALPHAINV_HID_DOUBLE_STATE", state_file.string()}},
+      30.0);
+  EXPECT_EQ(r.exit_code, 128 + SIGSEGV) << r.err;
+  test::HidDoubleState st;
+  std::ifstream f(state_file, std::ios::binary);
+  ASSERT_TRUE(f.read(reinterpret_cast<char*>(&st), sizeof st));
+  EXPECT_GE(st.enabled_writes, 400u);
+  EXPECT_EQ(st.last_enable, 0);
+  EXPECT_EQ(st.last_dac, 0);
   fs::remove_all(dir);
 }

@@ -1,17 +1,25 @@
 // omni_ctl --daemon end to end with a real client over the Unix socket: permissions, every
 // command, malformed and oversized messages (error replies; the loop keeps its deadlines), a
-// recorded run with a state stream, the omni_ctl client mode, faults and SIGTERM.
+// recorded run with a state stream, the omni_ctl client mode, faults and SIGTERM; and the attacks
+// of issue #13 (invalid UTF-8, socket paths that are not the daemon's, a second daemon, a fake
+// listener, loop options a daemon cannot honour, a reference beyond the angle limit, Ctrl-C while
+// the daemon is stalled), each named by its finding.
 #include <gtest/gtest.h>
 #include <poll.h>
+#include <sys/file.h>
+#include <fcntl.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/un.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <thread>
 
 #include "alphainv/data/dataset.hpp"
@@ -102,12 +110,97 @@ struct Daemon {
                                      "--socket",   socket,     "--no-mlock"};
     args.insert(args.end(), extra.begin(), extra.end());
     process = std::make_unique<Subprocess>(args);
-    for (int i = 0; i < 400 && !fs::exists(socket); ++i) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    // Ready when it answers (the socket file appears at bind(), before the daemon serves).
+    for (int i = 0; i < 400 && !ready(); ++i) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }
   }
   ~Daemon() { fs::remove_all(dir); }
+  bool ready() const {
+    if (!fs::exists(socket)) return false;
+    Client c(socket);
+    return c.connected() && c.request(R"({"cmd":"status"})").value("ok", false);
+  }
 };
+
+std::string slurp_file(const fs::path& p) {
+  std::ifstream f(p);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+/// Creates folder `p` with exactly `mode` (whatever the umask) and returns it.
+fs::path folder_with_mode(const fs::path& p, mode_t mode) {
+  fs::create_directories(p);
+  EXPECT_EQ(chmod(p.c_str(), mode), 0) << p;
+  return p;
+}
+
+/// A socket file nobody listens on (a daemon killed with SIGKILL leaves one).
+void make_stale_socket(const std::string& path) {
+  const int fd = socket(AF_UNIX, SOCK_STREAM, 0);
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  std::strncpy(addr.sun_path, path.c_str(), sizeof addr.sun_path - 1);
+  ASSERT_EQ(bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0) << path;
+  close(fd);
+  ASSERT_TRUE(fs::exists(path));
+}
+
+/// A listener that answers every request with ok and a finished run, as a planted fake daemon
+/// would; counts the bytes it received.
+class FakeDaemon {
+ public:
+  explicit FakeDaemon(int listen_fd) : fd_(listen_fd) {
+    thread_ = std::thread([this] { serve(); });
+  }
+  ~FakeDaemon() {
+    stop_.store(true);
+    thread_.join();
+    close(fd_);
+  }
+  long bytes_received() const { return bytes_.load(); }
+
+ private:
+  void serve() {
+    while (!stop_.load()) {
+      pollfd p{fd_, POLLIN, 0};
+      if (poll(&p, 1, 20) <= 0) continue;
+      const int c = accept(fd_, nullptr, nullptr);
+      if (c < 0) continue;
+      char buf[4096];
+      for (int i = 0; i < 100 && !stop_.load(); ++i) {
+        pollfd q{c, POLLIN, 0};
+        if (poll(&q, 1, 20) <= 0) continue;
+        const ssize_t n = recv(c, buf, sizeof buf, 0);
+        if (n <= 0) break;
+        bytes_ += n;
+        const std::string reply =
+            "{\"ok\":true,\"run_id\":1}\n{\"event\":\"run_done\",\"run_id\":1,\"fault\":null,"
+            "\"rows\":5000}\n";
+        (void)send(c, reply.data(), reply.size(), MSG_NOSIGNAL);
+      }
+      close(c);
+    }
+  }
+  int fd_;
+  std::atomic<bool> stop_{false};
+  std::atomic<long> bytes_{0};
+  std::thread thread_;
+};
+
+int listen_at(const std::string& path) {
+  const int fd = socket(AF_UNIX, SOCK_STREAM, 0);
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  std::strncpy(addr.sun_path, path.c_str(), sizeof addr.sun_path - 1);
+  if (bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0 || listen(fd, 4) != 0) {
+    close(fd);
+    return -1;
+  }
+  return fd;
+}
 
 }  // namespace
 
@@ -277,7 +370,7 @@ TEST(OmniCtlDaemon, SecondDaemonOnTheSameSocketIsRefused) {
   const ProcessResult second = run_process(
       {OMNI_CTL_BIN, "--daemon", "--device", "sim", "--socket", d.socket, "--no-mlock"}, {}, 10.0);
   EXPECT_EQ(second.exit_code, 4) << second.err;
-  EXPECT_NE(second.err.find("already listening"), std::string::npos) << second.err;
+  EXPECT_NE(second.err.find("already running on this socket"), std::string::npos) << second.err;
   d.process->signal(SIGTERM);
   EXPECT_EQ(d.process->wait(10.0).exit_code, 0);
 }
@@ -315,6 +408,282 @@ TEST(OmniCtlDaemon, PeersOfAnotherUidAreRefused) {
   // The daemon's own user still gets in.
   Client ok(d.socket);
   EXPECT_TRUE(ok.request(R"({"cmd":"status"})").value("ok", false));
+  d.process->signal(SIGTERM);
+  EXPECT_EQ(d.process->wait(10.0).exit_code, 0);
+}
+
+// --- issue #13 -----------------------------------------------------------------------------
+
+TEST(OmniCtlDaemon, InvalidUtf8FromAClientGetsAnErrorReplyAndTheDaemonLives) {  // finding 1
+  Daemon d("utf8");
+  ASSERT_TRUE(d.ready()) << d.process->err_so_far();
+  Client c(d.socket);
+  ASSERT_TRUE(c.connected());
+  for (const std::string& bad :
+       {std::string("\xff"), std::string("{\"cmd\":\"\xff\"}"),
+        std::string("{\"cmd\":\"status\",\"x\":\"\xc3\x28\"}"), std::string("{\"cmd\":\"\xc0\xaf\"}"),
+        std::string("{\"cmd\":\"run\",\"waveform\":\"\xed\xa0\x80\"}"),
+        std::string("\xfe\xff{}")}) {
+    const json r = c.request(bad);  // a reply the test's strict parser accepts: valid UTF-8
+    ASSERT_FALSE(r.is_null()) << "no reply: " << d.process->err_so_far();
+    EXPECT_FALSE(r["ok"].get<bool>());
+    EXPECT_NE(r["error"].get<std::string>().find("malformed JSON"), std::string::npos) << r;
+  }
+  // Valid UTF-8 that is not a command is named in the reply, intact.
+  const json r = c.request("{\"cmd\":\"caf\xc3\xa9\"}");
+  EXPECT_NE(r["error"].get<std::string>().find("unknown cmd 'caf\xc3\xa9'"), std::string::npos) << r;
+  EXPECT_TRUE(c.request(R"({"cmd":"status"})").value("ok", false));
+  d.process->signal(SIGTERM);
+  EXPECT_EQ(d.process->wait(10.0).exit_code, 0);
+}
+
+TEST(OmniCtlDaemon, SocketPathsItDidNotCreateAreLeftAlone) {  // findings 3 and 5
+  const fs::path dir = temp_dir("paths");
+  ASSERT_EQ(chmod(dir.c_str(), 0700), 0);  // a folder fit for a socket: only what is in it differs
+  fs::create_directories(dir / "full");
+  std::ofstream(dir / "full" / "keep") << "data";
+  std::ofstream(dir / "precious") << "do not delete";
+  fs::create_directories(dir / "empty");
+  folder_with_mode(dir / "open", 0755);
+  folder_with_mode(dir / "sticky", 01777);
+  const struct {
+    fs::path socket;
+    const char* message;
+  } cases[] = {
+      {dir / "full", "is not a socket (a folder)"},
+      {dir / "precious", "is not a socket (a file)"},
+      {dir / "empty", "is not a socket (a folder)"},
+      {dir / "open" / "omni_ctl.sock", "its mode is 0755; it must be 0700"},
+      {dir / "sticky" / "omni_ctl.sock", "its mode is 1777; it must be 0700"},
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.socket.string());
+    const ProcessResult r = run_process({OMNI_CTL_BIN, "--daemon", "--device", "sim", "--socket",
+                                         c.socket.string(), "--no-mlock"},
+                                        {}, 10.0);
+    EXPECT_EQ(r.exit_code, 4) << r.err;
+    EXPECT_NE(r.err.find(c.message), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find(c.socket.parent_path().string()), std::string::npos) << r.err;
+  }
+  EXPECT_EQ(slurp_file(dir / "full" / "keep"), "data");
+  EXPECT_EQ(slurp_file(dir / "precious"), "do not delete");
+  EXPECT_TRUE(fs::is_directory(dir / "empty"));
+  struct stat st {};
+  ASSERT_EQ(stat((dir / "open").c_str(), &st), 0);
+  EXPECT_EQ(st.st_mode & 07777, 0755u);
+  ASSERT_EQ(stat((dir / "sticky").c_str(), &st), 0);
+  EXPECT_EQ(st.st_mode & 07777, 01777u);
+  fs::remove_all(dir);
+}
+
+TEST(OmniCtlDaemon, OneDaemonPerSocketByItsLockFile) {  // finding 7
+  const fs::path dir = temp_dir("lock");
+  const fs::path run = folder_with_mode(dir / "run", 0700);
+  const std::string socket_path = (run / "omni_ctl.sock").string();
+  make_stale_socket(socket_path);
+  // A daemon between its stale-socket check and its bind holds the lock: another must not start.
+  {
+    const int lock = open((socket_path + ".lock").c_str(), O_RDWR | O_CREAT, 0600);
+    ASSERT_GE(lock, 0);
+    ASSERT_EQ(flock(lock, LOCK_EX | LOCK_NB), 0);
+    const ProcessResult r = run_process(
+        {OMNI_CTL_BIN, "--daemon", "--device", "sim", "--socket", socket_path, "--no-mlock"}, {},
+        5.0);
+    EXPECT_EQ(r.exit_code, 4) << r.err;
+    EXPECT_NE(r.err.find("already running on this socket"), std::string::npos) << r.err;
+    EXPECT_TRUE(fs::exists(socket_path));  // the stale socket was not touched by the loser
+    close(lock);
+  }
+  // Four started at once on the stale socket: exactly one serves, the others exit 4.
+  std::vector<std::unique_ptr<Subprocess>> daemons;
+  for (int i = 0; i < 4; ++i) {
+    daemons.push_back(std::make_unique<Subprocess>(std::vector<std::string>{
+        OMNI_CTL_BIN, "--daemon", "--device", "sim", "--socket", socket_path, "--no-mlock"}));
+  }
+  int refused = 0, running = 0;
+  for (auto& p : daemons) {
+    const ProcessResult r = p->wait(3.0);  // the one that serves is killed at the timeout
+    if (r.exit_code == 4) ++refused;
+    if (r.exit_code == -1) ++running;
+  }
+  EXPECT_EQ(running, 1);
+  EXPECT_EQ(refused, 3);
+  fs::remove_all(dir);
+}
+
+TEST(OmniCtlDaemon, AReferenceBeyondTheAngleLimitIsRefusedBeforeTheRun) {  // finding 14
+  Daemon d("limit", {"--theta-limit", "0.3"});
+  ASSERT_TRUE(d.ready()) << d.process->err_so_far();
+  Client c(d.socket);
+  for (const char* bad : {R"({"cmd":"run","waveform":"step","amplitude_rad":0.5})",
+                          R"({"cmd":"run","waveform":"sine","freq_hz":2,"amplitude_rad":0.35})",
+                          R"({"cmd":"run","waveform":"square","freq_hz":1,"amplitude_rad":0.31})"}) {
+    const json r = c.request(bad);
+    EXPECT_FALSE(r.value("ok", true)) << bad;
+    const std::string why = r.value("error", std::string());
+    EXPECT_NE(why.find("'amplitude_rad'"), std::string::npos) << why;
+    EXPECT_NE(why.find("beyond the angle limit +-0.3 rad"), std::string::npos) << why;
+  }
+  // Within the limit it runs, and the daemon is still there, unfaulted.
+  const json ok = c.request(
+      R"({"cmd":"run","waveform":"sine","freq_hz":2,"amplitude_rad":0.1,"duration_s":0.2})");
+  ASSERT_TRUE(ok.value("ok", false)) << ok;
+  json done;
+  for (int i = 0; i < 100 && done.is_null(); ++i) {
+    const json ev = c.next();
+    ASSERT_FALSE(ev.is_null()) << d.process->err_so_far();
+    if (ev.value("event", "") == "run_done") done = ev;
+  }
+  EXPECT_TRUE(done["fault"].is_null()) << done;
+  EXPECT_TRUE(c.request(R"({"cmd":"status"})").value("ok", false));
+  d.process->signal(SIGTERM);
+  EXPECT_EQ(d.process->wait(10.0).exit_code, 0);
+}
+
+TEST(OmniCtlClient, NonUtf8ArgumentsNeitherAbortNorLoseTheRun) {  // finding 2
+  const fs::path dir = temp_dir("latin1");
+  // A daemon whose socket folder has a Latin-1 name; the client's command line carries it.
+  const std::string socket_path = (dir / "s\xe9" / "omni_ctl.sock").string();
+  Subprocess daemon({OMNI_CTL_BIN, "--daemon", "--device", "sim", "--socket", socket_path,
+                     "--no-mlock"});
+  for (int i = 0; i < 400 && !fs::exists(socket_path); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_TRUE(fs::exists(socket_path)) << daemon.err_so_far();
+  const ProcessResult on_daemon = run_process(
+      {OMNI_CTL_BIN, "--joint", "yaw", "--step", "--duration", "0.2s", "--socket", socket_path});
+  EXPECT_EQ(on_daemon.exit_code, 0) << on_daemon.err;
+  EXPECT_NE(on_daemon.err.find("run done"), std::string::npos) << on_daemon.err;
+  // A Latin-1 --record path cannot cross the UTF-8 protocol: refused, named, nothing aborts.
+  const ProcessResult rec = run_process({OMNI_CTL_BIN, "--joint", "yaw", "--step", "--duration",
+                                         "0.2s", "--socket", socket_path, "--record",
+                                         (dir / "rec\xe9").string()});
+  EXPECT_EQ(rec.exit_code, 2) << rec.err;
+  EXPECT_NE(rec.err.find("--record: the path is not valid UTF-8"), std::string::npos) << rec.err;
+  Client c(socket_path);
+  EXPECT_TRUE(c.request(R"({"cmd":"status"})").value("ok", false));
+  daemon.signal(SIGTERM);
+  EXPECT_EQ(daemon.wait(10.0).exit_code, 0);
+  // Here (--local) the same path records, and dataset.json carries the command line repaired.
+  const fs::path local = dir / "local\xe9";
+  const ProcessResult here =
+      run_process({OMNI_CTL_BIN, "--joint", "yaw", "--local", "--no-mlock", "--sine", "3Hz",
+                   "--duration", "0.3s", "--device", "sim", "--record", local.string()});
+  EXPECT_EQ(here.exit_code, 0) << here.err;
+  const Dataset ds = read_dataset_index(local);
+  EXPECT_GT(read_run(ds, 0).size(), 250u);
+  EXPECT_NE(slurp_file(local / "dataset.json").find("local\xef\xbf\xbd"), std::string::npos);
+  fs::remove_all(dir);
+}
+
+TEST(OmniCtlClient, RefusesAListenerItCannotTrust) {  // finding 6
+  const fs::path dir = temp_dir("fake");
+  // A folder others may write: anyone could have put the socket there.
+  const fs::path open_dir = folder_with_mode(dir / "open", 0777);
+  const std::string fake_path = (open_dir / "omni_ctl.sock").string();
+  const int fd = listen_at(fake_path);
+  ASSERT_GE(fd, 0);
+  {
+    FakeDaemon fake(fd);
+    const ProcessResult r = run_process(
+        {OMNI_CTL_BIN, "--joint", "yaw", "--step", "--duration", "0.2s", "--socket", fake_path});
+    EXPECT_EQ(r.exit_code, 4) << r.err;
+    EXPECT_NE(r.err.find("refusing the listener at " + fake_path), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("its mode is 0777"), std::string::npos) << r.err;
+    EXPECT_EQ(r.err.find("run done"), std::string::npos) << r.err;
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    EXPECT_EQ(fake.bytes_received(), 0);  // not a byte of the run went to the fake
+  }
+  if (getuid() != 0) {
+    fs::remove_all(dir);
+    GTEST_SKIP() << "the SO_PEERCRED half needs root to listen as another uid";
+  }
+  // A private folder of ours, but the listener runs as another uid (65534).
+  const fs::path mine = folder_with_mode(dir / "mine", 0700);
+  const std::string path = (mine / "omni_ctl.sock").string();
+  int ready[2];
+  ASSERT_EQ(pipe(ready), 0);
+  const pid_t child = fork();
+  if (child == 0) {
+    const int s = socket(AF_UNIX, SOCK_STREAM, 0);
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    std::strncpy(addr.sun_path, path.c_str(), sizeof addr.sun_path - 1);
+    if (bind(s, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) _exit(2);
+    if (setgid(65534) != 0 || setuid(65534) != 0 || listen(s, 4) != 0) _exit(3);
+    if (write(ready[1], "r", 1) != 1) _exit(4);
+    for (;;) {  // accept and answer like a daemon until killed
+      const int c = accept(s, nullptr, nullptr);
+      const char* reply = "{\"ok\":true}\n";
+      if (c >= 0) (void)send(c, reply, std::strlen(reply), MSG_NOSIGNAL);
+    }
+  }
+  char b = 0;
+  ASSERT_EQ(read(ready[0], &b, 1), 1);
+  const ProcessResult r = run_process(
+      {OMNI_CTL_BIN, "--joint", "yaw", "--step", "--duration", "0.2s", "--socket", path});
+  kill(child, SIGKILL);
+  waitpid(child, nullptr, 0);
+  close(ready[0]);
+  close(ready[1]);
+  EXPECT_EQ(r.exit_code, 4) << r.err;
+  EXPECT_NE(r.err.find("the listener runs as uid 65534"), std::string::npos) << r.err;
+  fs::remove_all(dir);
+}
+
+TEST(OmniCtlClient, RefusesLoopOptionsTheDaemonCannotHonour) {  // finding 8
+  Daemon d("honour");
+  ASSERT_TRUE(d.ready()) << d.process->err_so_far();
+  const std::vector<std::string> base = {OMNI_CTL_BIN, "--joint", "yaw", "--step", "--amplitude",
+                                         "0.05", "--duration", "0.2s", "--socket", d.socket};
+  const struct {
+    std::vector<std::string> extra;
+    const char* named;
+  } refused[] = {
+      {{"--max-command", "0.1"}, "--max-command 0.1 (the daemon uses 1.0)"},
+      {{"--theta-limit", "0.5"}, "--theta-limit 0.5 (the daemon uses 1.0)"},
+      {{"--device", "sim", "--sim-fault", "stall@0.1"}, "--sim-fault (the daemon's own)"},
+      {{"--stall-periods", "5"}, "--stall-periods 5 (the daemon uses 20)"},
+  };
+  for (const auto& c : refused) {
+    auto args = base;
+    args.insert(args.end(), c.extra.begin(), c.extra.end());
+    const ProcessResult r = run_process(args);
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_NE(r.err.find(c.named), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("--local"), std::string::npos) << r.err;
+  }
+  // The daemon's own value is no conflict: it runs there.
+  auto same = base;
+  same.insert(same.end(), {"--max-command", "1"});
+  const ProcessResult ok = run_process(same);
+  EXPECT_EQ(ok.exit_code, 0) << ok.err;
+  EXPECT_NE(ok.err.find("run done"), std::string::npos) << ok.err;
+  d.process->signal(SIGTERM);
+  EXPECT_EQ(d.process->wait(10.0).exit_code, 0);
+}
+
+TEST(OmniCtlClient, CtrlCCancelsWhileTheDaemonIsStalled) {  // finding 15
+  Daemon d("stalled");
+  ASSERT_TRUE(d.ready()) << d.process->err_so_far();
+  const fs::path rec = d.dir / "rec";
+  d.process->signal(SIGSTOP);
+  Subprocess client({OMNI_CTL_BIN, "--joint", "yaw", "--step", "--amplitude", "0.05",
+                     "--duration", "2s", "--socket", d.socket, "--record", rec.string()});
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  client.signal(SIGINT);
+  const ProcessResult r = client.wait(5.0);
+  d.process->signal(SIGCONT);
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("cancelled before the run was sent"), std::string::npos) << r.err;
+  // Resumed, the daemon starts nothing.
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  Client c(d.socket);
+  const json s = c.request(R"({"cmd":"status"})");
+  ASSERT_TRUE(s.value("ok", false)) << d.process->err_so_far();
+  EXPECT_FALSE(s["running"].get<bool>());
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  EXPECT_FALSE(fs::exists(rec / "dataset.json"));
   d.process->signal(SIGTERM);
   EXPECT_EQ(d.process->wait(10.0).exit_code, 0);
 }

@@ -2,8 +2,10 @@
 // the real hid_* call sequence, report encoding on the wire, and the error paths.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <thread>
 
 #include "alphainv/device/hid_transport.hpp"
 #include "alphainv/error.hpp"
@@ -116,4 +118,28 @@ TEST(HidTransport, DisconnectFailsReadsAndWritesWithHidapisMessage) {
   EXPECT_EQ(t.write(out), IoStatus::kDisconnected);
   EXPECT_EQ(t.read_latest().status, IoStatus::kDisconnected);
   EXPECT_NE(t.last_error().find("disconnected"), std::string::npos) << t.last_error();
+}
+
+TEST(HidTransport, TheDevicesWatchdogReportsAHostThatStoppedWriting) {
+  // docs/hid-reports.md: with no output report for more than the device's watchdog period (10 ms
+  // in the double) the device zeroes the motor by itself and sets status bit 2; a dead or hung
+  // host (SIGKILL, a stalled loop) leaves exactly that behind.
+  HidTransport t(HidDeviceSpec::parse(""));
+  t.open();
+  OutputReport out;
+  out.enable = true;
+  out.dac_counts = ReportScaling{}.dac(0.3);
+  ASSERT_EQ(t.read_latest().status, IoStatus::kOk);
+  for (int k = 0; k < 5; ++k) {
+    out.sequence = static_cast<std::uint16_t>(k);
+    ASSERT_EQ(t.write(out), IoStatus::kOk);
+  }
+  (void)t.read_latest();
+  std::this_thread::sleep_for(std::chrono::milliseconds(60));  // the host stops for 60 ms
+  out.sequence = 5;
+  ASSERT_EQ(t.write(out), IoStatus::kOk);
+  const ReadResult in = t.read_latest();
+  ASSERT_EQ(in.status, IoStatus::kOk);
+  EXPECT_NE(in.report.status & kStatusWatchdog, 0) << in.report.status;
+  t.close();
 }

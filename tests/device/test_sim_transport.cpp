@@ -2,6 +2,9 @@
 // fault's effect on the wire.
 #include <gtest/gtest.h>
 
+#include <chrono>
+#include <thread>
+
 #include "alphainv/device/sim_transport.hpp"
 #include "alphainv/error.hpp"
 
@@ -94,4 +97,45 @@ TEST(SimTransport, InjectedFaultsOnTheWire) {
     EXPECT_EQ(t.read_latest().status, IoStatus::kDisconnected);
     EXPECT_FALSE(t.device().written().back().delivered);
   }
+}
+
+TEST(VirtualDevice, ItsWatchdogZeroesTheOutputWhenReportsStop) {
+  // docs/hid-reports.md: no valid output report for longer than the watchdog period → 0 V and
+  // status bit 2 (kStatusWatchdog). A wide period keeps a loaded machine from tripping it early.
+  SimTransport t(VirtualOmniParams{}, ReportScaling{});
+  VirtualDevice& dev = t.device();
+  dev.set_watchdog_s(0.1);
+  const ReportScaling scaling;
+  OutputReport out;
+  out.enable = true;
+  out.dac_counts = scaling.dac(0.5);
+  EXPECT_FALSE(dev.watchdog_tripped());  // never armed before the first report
+  for (int k = 0; k < 20; ++k) {
+    out.sequence = static_cast<std::uint16_t>(k);
+    ASSERT_EQ(t.write(out), IoStatus::kOk);
+  }
+  EXPECT_DOUBLE_EQ(dev.applied_command_v(), scaling.command_v(out.dac_counts));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the host stops writing
+  EXPECT_TRUE(dev.watchdog_tripped());
+  EXPECT_EQ(dev.applied_command_v(), 0.0);  // the output stage holds 0 V on its own
+  const ReadResult before = t.read_latest();
+  ASSERT_EQ(before.status, IoStatus::kOk);
+  EXPECT_EQ(before.report.status & kStatusWatchdog, 0);  // queued before the gap
+  // A valid report re-arms it; the input report it produces says the watchdog had tripped.
+  out.sequence = 20;
+  ASSERT_EQ(t.write(out), IoStatus::kOk);
+  EXPECT_GE(dev.watchdog_trips(), 1);
+  EXPECT_FALSE(dev.watchdog_tripped());
+  const ReadResult after = t.read_latest();
+  ASSERT_EQ(after.status, IoStatus::kOk);
+  EXPECT_NE(after.report.status & kStatusWatchdog, 0);
+  out.sequence = 21;
+  ASSERT_EQ(t.write(out), IoStatus::kOk);
+  EXPECT_EQ(t.read_latest().report.status & kStatusWatchdog, 0);  // reported once
+  // An undecodable report does not feed the watchdog.
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  const std::uint8_t garbage[kOutputReportSize] = {0x02, 1, 2, 3, 4, 5, 6, 7};
+  EXPECT_EQ(dev.write(garbage, sizeof garbage), static_cast<int>(sizeof garbage));
+  EXPECT_TRUE(dev.watchdog_tripped());
+  EXPECT_EQ(dev.applied_command_v(), 0.0);
 }

@@ -10,9 +10,19 @@
 //                                           saw as CSV: device_tick,sequence,dac_counts,enable,
 //                                           decoded,delivered,fault_active
 //   ALPHAINV_HID_DOUBLE_ABSENT=1            no device: hid_open fails
+//   ALPHAINV_HID_DOUBLE_STATE=FILE          keep the last output report (HidDoubleState) in FILE,
+//                                           mapped MAP_SHARED: it survives a crash of the process
+//   ALPHAINV_HID_DOUBLE_CRASH=KIND@SECONDS  crash the process inside hid_read at that device time,
+//                                           as a bug would: KIND = terminate (an exception out of
+//                                           the noexcept read), segv, abort, bus, fpe, ill (the
+//                                           signal raised)
 // The device answers to VID:PID 1209:0001 or the path /dev/hidraw-double.
+#include <fcntl.h>
 #include <hidapi/hidapi.h>
+#include <signal.h>
+#include <sys/mman.h>
 #include <time.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <cstdlib>
@@ -20,17 +30,58 @@
 #include <memory>
 #include <string>
 
+#include <stdexcept>
+
 #include "alphainv/device/sim_transport.hpp"
+#include "hid_double_state.hpp"
+
+using alphainv::test::HidDoubleState;
 
 struct hid_device_ {
   std::unique_ptr<alphainv::device::VirtualDevice> device;
   std::string log_path;
   bool nonblocking = false;
+  HidDoubleState* state = nullptr;  // mapped, or null
+  int crash_signal = 0;             // 0: none; -1: std::terminate
+  double crash_at_s = 0.0;
 };
 
 namespace {
 
 const wchar_t* g_error = L"";
+
+HidDoubleState* map_state(const char* path) {
+  const int fd = open(path, O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+  if (fd < 0) return nullptr;
+  void* p = nullptr;
+  if (ftruncate(fd, sizeof(HidDoubleState)) == 0) {
+    p = mmap(nullptr, sizeof(HidDoubleState), PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+  }
+  close(fd);
+  if (p == MAP_FAILED || p == nullptr) return nullptr;
+  auto* state = new (p) HidDoubleState;
+  state->magic = HidDoubleState::kMagic;
+  return state;
+}
+
+/// "KIND@SECONDS" of ALPHAINV_HID_DOUBLE_CRASH; false when malformed.
+bool parse_crash(const char* text, int& signal_out, double& at_s) {
+  const char* at = std::strchr(text, '@');
+  if (at == nullptr) return false;
+  const std::string kind(text, at);
+  const struct {
+    const char* name;
+    int sig;
+  } kinds[] = {{"terminate", -1}, {"segv", SIGSEGV}, {"abort", SIGABRT},
+               {"bus", SIGBUS},   {"fpe", SIGFPE},   {"ill", SIGILL}};
+  signal_out = 0;
+  for (const auto& k : kinds) {
+    if (kind == k.name) signal_out = k.sig;
+  }
+  char* end = nullptr;
+  at_s = std::strtod(at + 1, &end);
+  return signal_out != 0 && end != at + 1;
+}
 
 hid_device* open_double() {
   const char* absent = std::getenv("ALPHAINV_HID_DOUBLE_ABSENT");
@@ -52,6 +103,17 @@ hid_device* open_double() {
   dev->device = std::make_unique<alphainv::device::VirtualDevice>(
       alphainv::VirtualOmniParams{}, alphainv::device::ReportScaling{}, fault, 1 << 16);
   if (const char* log = std::getenv("ALPHAINV_HID_DOUBLE_LOG")) dev->log_path = log;
+  if (const char* st = std::getenv("ALPHAINV_HID_DOUBLE_STATE"); st != nullptr && *st != 0) {
+    dev->state = map_state(st);
+  }
+  if (const char* c = std::getenv("ALPHAINV_HID_DOUBLE_CRASH"); c != nullptr && *c != 0) {
+    if (!parse_crash(c, dev->crash_signal, dev->crash_at_s)) {
+      std::fprintf(stderr, "hid double: bad ALPHAINV_HID_DOUBLE_CRASH '%s'\n", c);
+      delete dev;
+      g_error = L"hid double: bad ALPHAINV_HID_DOUBLE_CRASH";
+      return nullptr;
+    }
+  }
   g_error = L"";
   return dev;
 }
@@ -111,11 +173,26 @@ int HID_API_EXPORT HID_API_CALL hid_write(hid_device* dev, const unsigned char* 
                                           size_t length) {
   const int n = dev->device->write(data, length);
   if (n < 0) g_error = L"hid double: write failed, device disconnected (injected fault)";
+  if (HidDoubleState* st = dev->state) {
+    alphainv::device::OutputReport r;
+    const bool ok = alphainv::device::decode(data, length, r) == alphainv::device::DecodeStatus::kOk;
+    st->last_sequence = ok ? r.sequence : 0;
+    st->last_dac = ok ? r.dac_counts : 0;
+    st->last_enable = ok && r.enable ? 1 : 0;
+    st->last_decoded = ok ? 1 : 0;
+    st->enabled_writes += st->last_enable;
+    st->watchdog_trips = static_cast<std::uint64_t>(dev->device->watchdog_trips());
+    ++st->writes;  // last: a reader that sees the count sees the report
+  }
   return n;
 }
 
 int HID_API_EXPORT HID_API_CALL hid_read_timeout(hid_device* dev, unsigned char* data,
                                                  size_t length, int /*milliseconds*/) {
+  if (dev->crash_signal != 0 && dev->device->plant().time_s() >= dev->crash_at_s) {
+    if (dev->crash_signal < 0) throw std::runtime_error("hid double: injected crash");
+    raise(dev->crash_signal);
+  }
   if (dev->device->slow()) {
     timespec ts{0, 3'000'000};
     nanosleep(&ts, nullptr);
@@ -142,6 +219,7 @@ void HID_API_EXPORT HID_API_CALL hid_close(hid_device* dev) {
       std::fclose(f);
     }
   }
+  if (dev->state != nullptr) munmap(dev->state, sizeof(HidDoubleState));
   delete dev;
 }
 

@@ -106,8 +106,13 @@ class LoopRunner {
   /// Pops the newest tick records pushed for streaming into `out` (keeps the last); false when
   /// none arrived since the last call. One consumer thread.
   bool latest(rt::TickRecord& out);
-  /// Waits up to timeout_s for run `run_id`'s result. Any thread.
+  /// Waits up to timeout_s for run `run_id`'s result and hands it over (a second call for the same
+  /// run waits in vain). Any thread.
   bool wait_run(std::uint32_t run_id, double timeout_s, RunResult& out);
+  /// Results kept for wait_run() (at most kKeptResults: the newest; a daemon that takes its
+  /// results from on_run_done and never waits keeps no more than that). Any thread.
+  std::size_t kept_results();
+  static constexpr std::size_t kKeptResults = 16;
   /// The loop's gain now (as of the last tick). Any thread.
   double kp() const noexcept { return kp_.load(std::memory_order_relaxed); }
   bool running_waveform() const noexcept { return run_active_.load(std::memory_order_relaxed); }

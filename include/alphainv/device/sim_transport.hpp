@@ -76,6 +76,22 @@ class VirtualDevice {
   /// Device tick at which the fault became active, or −1.
   long fault_tick() const noexcept { return fault_tick_; }
 
+  /// The device's own watchdog (docs/hid-reports.md): when no valid output report arrived for
+  /// longer than watchdog_s of wall-clock time (CLOCK_MONOTONIC), the output stage applies 0 V
+  /// whatever the last report said, and the next input report carries kStatusWatchdog. A valid
+  /// report re-arms it. The plant's own time advances only with output reports, so the gap itself
+  /// is not simulated: the watchdog models the output stage a dead host leaves behind.
+  static constexpr double kDefaultWatchdogS = 0.010;
+  void set_watchdog_s(double watchdog_s) noexcept { watchdog_s_ = watchdog_s; }
+  /// True when the watchdog holds the output at 0 V now (no valid report for > watchdog_s).
+  /// Real-time safe.
+  bool watchdog_tripped() const noexcept;
+  /// How many times the watchdog tripped (gaps longer than watchdog_s between valid reports).
+  long watchdog_trips() const noexcept { return watchdog_trips_; }
+  /// The voltage the output stage applies now [V]: the last valid report's command, 0 when it
+  /// was disabled or the watchdog tripped. Real-time safe.
+  double applied_command_v() const noexcept;
+
  private:
   void queue_report() noexcept;
 
@@ -89,6 +105,11 @@ class VirtualDevice {
   std::size_t queue_head_ = 0, queue_size_ = 0;
   std::vector<WrittenCommand> log_;  ///< ring of the newest commands, sized at construction
   std::size_t log_count_ = 0;
+  double watchdog_s_ = kDefaultWatchdogS;
+  long long last_valid_ns_ = -1;  ///< CLOCK_MONOTONIC of the last valid output report
+  bool watchdog_report_ = false;  ///< the next input report carries kStatusWatchdog
+  long watchdog_trips_ = 0;
+  double last_v_ = 0.0;  ///< the last valid report's command (0 when disabled) [V]
 };
 
 /// VirtualDevice behind the Transport interface, in process.
