@@ -61,9 +61,6 @@ constexpr const char* kLoopOptions[] = {"--max-command", "--max-slew",    "--the
                                         "--device",      "--model",       "--rt-priority",
                                         "--no-mlock"};
 
-/// Runs `opt` on the daemon at its socket when one listens there and can be trusted, else here.
-ExitCode run_here_or_on_daemon(const Options& opt, const std::atomic<bool>& stop);
-
 ExitCode run_local(const Options& opt, const std::atomic<bool>& stop) {
   LoopSetup setup;
   try {
@@ -117,6 +114,7 @@ ExitCode run_local(const Options& opt, const std::atomic<bool>& stop) {
   return ExitCode::kOk;
 }
 
+/// Runs `opt` on the daemon at its socket when one listens there and can be trusted, else here.
 ExitCode run_here_or_on_daemon(const Options& opt, const std::atomic<bool>& stop) {
   if (opt.local) return run_local(opt, stop);
   const Connection daemon = connect_daemon(opt.socket_path);

@@ -670,7 +670,12 @@ TEST(OmniCtlClient, CtrlCCancelsWhileTheDaemonIsStalled) {  // finding 15
   d.process->signal(SIGSTOP);
   Subprocess client({OMNI_CTL_BIN, "--joint", "yaw", "--step", "--amplitude", "0.05",
                      "--duration", "2s", "--socket", d.socket, "--record", rec.string()});
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  // Connected (its signal handlers are in place) and waiting for the stalled daemon's answer.
+  for (int i = 0; i < 500 && client.err_so_far().find("using the daemon") == std::string::npos;
+       ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
   client.signal(SIGINT);
   const ProcessResult r = client.wait(5.0);
   d.process->signal(SIGCONT);
