@@ -49,6 +49,13 @@ TimeDomainLinearFit digital_linear_fit(const std::vector<TimeDomainRun>& runs, d
   return fit;
 }
 
+/// The runs as the time-domain fits take them, all under `ctl`.
+std::vector<TimeDomainRun> time_domain_runs(const std::vector<RunData>& runs, const Controller& ctl) {
+  std::vector<TimeDomainRun> tr;
+  for (const auto& r : runs) tr.push_back({&r, ctl});
+  return tr;
+}
+
 TEST(LocalQuadraticDerivatives, ExactOnAQuadraticWithIrregularSampling) {
   std::vector<double> t, y;
   double tt = 0.0;
@@ -85,8 +92,7 @@ TEST(TimeDomainFit, LinearModelFromSquareAndMultisineRunsOfTheDigitalPlant) {
   Controller ctl;
   ctl.kp = 3.0;
   const auto runs = plant_runs(p, ctl);
-  std::vector<TimeDomainRun> tr;
-  for (const auto& r : runs) tr.push_back({&r, ctl});
+  const std::vector<TimeDomainRun> tr = time_domain_runs(runs, ctl);
   const TimeDomainLinearFit fit = digital_linear_fit(tr, c, bt);
   ASSERT_TRUE(fit.ok) << fit.message;
   // The equation-error start is close but biased (the hold's delay, noisy derivatives).
@@ -109,8 +115,7 @@ TEST(TimeDomainFit, AlphaModelFromTimeDomainRunsMatchesTheTruthAlongTheData) {
   Controller ctl;
   ctl.kp = 2.0;
   const auto runs = plant_runs(p, ctl);
-  std::vector<TimeDomainRun> tr;
-  for (const auto& r : runs) tr.push_back({&r, ctl});
+  const std::vector<TimeDomainRun> tr = time_domain_runs(runs, ctl);
   TimeDomainFitOptions o;
   o.simulation.loop_period_s = 1e-3;
   const TimeDomainLinearFit lin = fit_linear_time_domain(tr, o);
@@ -170,6 +175,33 @@ TEST(TimeDomainFit, AnOpenLoopRunIsFittedWithItsCommandAsTheInput) {
   // Open loop θ integrates: the error of θ̇(0), estimated from 10 ms of noisy samples (about
   // σ/5 ms = 0.01 rad/s), stays as an offset of θ̇-error/C ≈ 1e-3 rad. Closed loop it would decay.
   EXPECT_LT(fit.rms, 2e-3);
+}
+
+TEST(TimeDomainFit, LowSampleRatesFitWithTheAlphaFilterCutOffFromTheData) {
+  // A rig sampled (and controlled) at 40 Hz or 20 Hz: the α filter's 25 Hz default is above its
+  // stability bound 0.25/T, so the digital loop runs it at 0.2/T (8 Hz, 4 Hz), as the plant does.
+  for (double rate_hz : {40.0, 20.0}) {
+    VirtualOmniParams p;
+    const double i = p.inertia.inertia(deg_to_rad(p.gamma1_deg), deg_to_rad(p.gamma2_deg));
+    const double c = 9.0, bt = 180.0;
+    p.alpha_model = constant_alpha_model(1.0 / (c * i), 1.0 / (bt * i));
+    p.tick_period_s = p.alpha_filter.sample_period_s = 1.0 / rate_hz;
+    p.alpha_filter.cutoff_hz = 0.2 * rate_hz;
+    Controller ctl;
+    ctl.kp = 1.0;
+    const auto runs = plant_runs(p, ctl);
+    const std::vector<TimeDomainRun> tr = time_domain_runs(runs, ctl);
+    TimeDomainFitOptions o;
+    o.simulation.loop_period_s = 1.0 / rate_hz;  // loop_alpha_cutoff_hz left at 25 Hz
+    EXPECT_DOUBLE_EQ(loop_alpha_cutoff_hz(o.simulation), 0.2 * rate_hz);
+    const TimeDomainLinearFit fit = fit_linear_time_domain(tr, o);
+    ASSERT_TRUE(fit.ok) << rate_hz << " Hz: " << fit.message;
+    EXPECT_NEAR(fit.c_linear, c, 0.01 * c) << rate_hz;
+    EXPECT_NEAR(fit.beta_tilde_linear, bt, 0.01 * bt) << rate_hz;
+    // Noise-free, the plant's own loop: what is left is θ̇(0) estimated from the first 4 samples
+    // (100-200 ms) of runs that start at rest and accelerate (5e-4 rad at 40 Hz, 1.9e-3 at 20 Hz).
+    EXPECT_LT(fit.rms, 3e-3) << rate_hz;
+  }
 }
 
 TEST(TimeDomainFit, NoExcitationGivesAMessage) {
