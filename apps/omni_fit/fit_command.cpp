@@ -144,7 +144,7 @@ int run_fit(const FitCommandOptions& opt) {
       HoldoutSplit split = holdout_every_kth_run_per_pose(all, opt.holdout);
       all = std::move(split.fit);
       held.push_back(std::move(split.held_out));
-      held_out_label = "every " + std::to_string(opt.holdout) + "th run per pose of " +
+      held_out_label = "every K-th run per pose (K = " + std::to_string(opt.holdout) + ") of " +
                        joined(opt.dataset_dirs);
     }
     if (!opt.validate_on.empty()) {

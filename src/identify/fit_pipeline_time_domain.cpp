@@ -20,7 +20,7 @@ void fit_time_domain_poses(const Dataset& dataset, const std::vector<RunData>& d
   to.simulation = fit.simulation;
   to.effects = fit.effects;  // known effects, kept fixed
   std::vector<TimeDomainRun> all_runs;
-  std::size_t torque_off = 0, not_p = 0;
+  std::size_t torque_off = 0, not_p = 0, open_loop = 0;
   for (std::size_t p = 0; p < fit.poses.size(); ++p) {
     PoseFit& pose = fit.poses[p];
     // With an inertia model every pose with known angles has its model (24)-(25) already.
@@ -31,7 +31,9 @@ void fit_time_domain_poses(const Dataset& dataset, const std::vector<RunData>& d
       // input (plant_input.hpp: the amplifier gives nothing while it is 0).
       if (KnownInputSeries::of_run(data[i]).has_torque_off()) ++torque_off;
       const Controller& ctl = dataset.runs[i].controller;
-      if (!(ctl.kp > 0.0)) {
+      if (is_open_loop(ctl)) {
+        ++open_loop;  // no controller: the recorded v is the input (simulate_open_loop)
+      } else if (!(ctl.kp > 0.0)) {
         ++not_p;
         continue;
       }
@@ -92,7 +94,12 @@ void fit_time_domain_poses(const Dataset& dataset, const std::vector<RunData>& d
                         "gives nothing while it is 0)");
   }
   if (not_p > 0) {
-    fit.notes.push_back(std::to_string(not_p) + " run(s) have no kp > 0; not fitted");
+    fit.notes.push_back(std::to_string(not_p) + " run(s) have kp = 0 but ki or kd != 0; not fitted");
+  }
+  if (open_loop > 0) {
+    fit.notes.push_back(std::to_string(open_loop) +
+                        " run(s) have no controller (kp = ki = kd = 0): fitted open loop, the "
+                        "recorded command v the input of θ̈ + C·θ̇ = β̃·u");
   }
   if (!all_runs.empty()) {
     fit.notes.push_back(

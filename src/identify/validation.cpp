@@ -39,8 +39,11 @@ double initial_objective(unsigned, const double* x, double*, void* p) {
   InitialState x0 = f.base;
   x0.theta = x[0];
   x0.theta_dot = x[1];
+  // Open loop: the reference is the recorded command (simulate_recorded_run).
   const SimulationResult s =
-      simulate(*f.joint, *f.controller, *f.reference, f.times, x0, f.simulation, f.known);
+      is_open_loop(*f.controller)
+          ? simulate_open_loop(*f.joint, *f.reference, f.times, x0, f.simulation, f.known)
+          : simulate(*f.joint, *f.controller, *f.reference, f.times, x0, f.simulation, f.known);
   if (!s.ok || s.theta.size() != f.times.size()) return 1e30;
   double ss = 0.0;
   for (std::size_t k = 0; k < f.times.size(); ++k) {
@@ -103,7 +106,7 @@ ValidatedRun validate_run(const ModelFile& model, const RunInfo& info, const Run
   }
   // The run's controller; a dataset that states none runs under the model's.
   const Controller controller = info.controller.kp > 0.0 ? info.controller : model.controller;
-  const SampledReference reference(d.t, d.r);
+  const SampledReference reference(d.t, is_open_loop(controller) ? d.v : d.r);
   SimulationOptions so = options.simulation;
   so.loop_period_s = model.loop_period_s;
   InitialState x0 = initial_state_of(d);
@@ -130,7 +133,10 @@ ValidatedRun validate_run(const ModelFile& model, const RunInfo& info, const Run
   v.command = fit_figures(d.v, s.v, v.first_sample);
   std::vector<double> e(d.theta.begin() + static_cast<std::ptrdiff_t>(v.first_sample), d.theta.end());
   for (std::size_t k = 0; k < e.size(); ++k) e[k] -= s.theta[k + v.first_sample];
-  const std::vector<double> u(d.r.begin() + static_cast<std::ptrdiff_t>(v.first_sample), d.r.end());
+  // The input of the residual tests: r in closed loop, the recorded command v in open loop.
+  const std::vector<double>& input = is_open_loop(controller) ? d.v : d.r;
+  const std::vector<double> u(input.begin() + static_cast<std::ptrdiff_t>(v.first_sample),
+                              input.end());
   ResidualTestOptions ro = options.residual;
   if (ro.sample_period_s <= 0.0) ro.sample_period_s = median_period(d.t);
   v.residual = residual_tests(e, u, ro);

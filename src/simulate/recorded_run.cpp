@@ -53,6 +53,10 @@ SimulationResult simulate_recorded_run(const JointModelAtPose& model, const Cont
       return bad;
     }
   }
+  if (is_open_loop(controller)) {
+    const SampledReference command(run.t, run.v);
+    return simulate_open_loop(model, command, run.t, initial, options, known);
+  }
   const SampledReference reference(run.t, run.r);
   return simulate(model, controller, reference, run.t, initial, options, known);
 }

@@ -31,10 +31,12 @@ struct RhsValue {
 /// The closed loop (43) with the PID law (10); α by the fixed point (44)-(46).
 class ClosedLoop {
  public:
-  ClosedLoop(const JointModelAtPose& model, const Controller& controller,
+  /// `open_loop`: the reference is the command v(t) (simulate_open_loop), not the controller's r.
+  ClosedLoop(const JointModelAtPose& model, const Controller& controller, bool open_loop,
              const SimulationOptions& options, const KnownInputSeries& known,
              SimulationResult& stats)
-      : model_(model), ctl_(controller), opt_(options), known_(known), stats_(stats) {
+      : model_(model), ctl_(controller), open_loop_(open_loop), opt_(options), known_(known),
+        stats_(stats) {
     // Coefficients at the run's inertia, computed once (eq. (40), (42)).
     const auto& a = model.alpha;
     n_ = a.n_breakpoints;
@@ -79,17 +81,20 @@ class ClosedLoop {
     const double e = ref.r - theta;
     const bool d_on_err = ctl_.derivative_on == DerivativeOn::kError;
     const double d = d_on_err ? ref.r_dot - phi : -phi;
-    const double v_raw = ctl_.kp * e + ctl_.ki * z + ctl_.kd * d;
-    const double v = ctl_.clamp(v_raw);
+    const double v_raw = open_loop_ ? ref.r : ctl_.kp * e + ctl_.ki * z + ctl_.kd * d;
+    const double v = open_loop_ ? v_raw : ctl_.clamp(v_raw);
     const bool saturated = v != v_raw;
-    // v̇ and v̈ as functions of the unknown Φ̇ (eq. (44)). The kd contribution to v̈ needs r⃛ and Φ̈,
-    // which the scheme does not carry; it is dropped (exact for kd = 0, the paper's case).
+    // v̇ and v̈ as functions of the unknown Φ̇ (eq. (44)); in open loop those of the recorded
+    // command. The kd contribution to v̈ needs r⃛ and Φ̈, which the scheme does not carry; it is
+    // dropped (exact for kd = 0, the paper's case).
     auto v_dot_of = [&](double phi_dot) {
+      if (open_loop_) return ref.r_dot;
       if (saturated) return 0.0;
       return ctl_.kp * (ref.r_dot - phi) + ctl_.ki * e +
              ctl_.kd * (d_on_err ? ref.r_ddot - phi_dot : -phi_dot);
     };
     auto v_ddot_of = [&](double phi_dot) {
+      if (open_loop_) return ref.r_ddot;
       if (saturated) return 0.0;
       return ctl_.kp * (ref.r_ddot - phi_dot) + ctl_.ki * (ref.r_dot - phi);
     };
@@ -133,13 +138,14 @@ class ClosedLoop {
     out.alpha = alpha;
     out.damping = c;
     out.beta_tilde = b;
-    out.dx = {phi, phi_dot, e};
+    out.dx = {phi, phi_dot, open_loop_ ? 0.0 : e};
     return out;
   }
 
  private:
   const JointModelAtPose& model_;
   const Controller& ctl_;
+  const bool open_loop_;
   const SimulationOptions& opt_;
   const KnownInputSeries& known_;
   SimulationResult& stats_;
@@ -324,8 +330,9 @@ void simulate_cvode(ClosedLoop& loop, const Reference& ref, const std::vector<do
 
 /// The digital loop (file comment of simulate.hpp): the plant of virtual_omni.hpp with the model's
 /// C, β̃ and effects, no measurement effects, driven by the sampled PID law of run_closed_loop.
-void simulate_digital(const JointModelAtPose& model, const Controller& ctl, const Reference& ref,
-                      const std::vector<double>& times, const InitialState& init,
+void simulate_digital(const JointModelAtPose& model, const Controller& ctl, bool open_loop,
+                      const Reference& ref, const std::vector<double>& times,
+                      const InitialState& init,
                       const SimulationOptions& opt, const KnownInputSeries& known,
                       SimulationResult& res) {
   const double T = opt.loop_period_s;
@@ -343,9 +350,10 @@ void simulate_digital(const JointModelAtPose& model, const Controller& ctl, cons
   p.initial_theta_rad = init.theta;
   p.initial_theta_dot_rad_s = init.theta_dot;
   const ReferenceSample r0 = ref.at(t0);
-  p.initial_command_v = init.command_history.empty()
-                            ? ctl.clamp(ctl.kp * (r0.r - init.theta) + ctl.ki * init.integral)
-                            : init.command_history.front();
+  p.initial_command_v =
+      !init.command_history.empty()
+          ? init.command_history.front()
+          : (open_loop ? r0.r : ctl.clamp(ctl.kp * (r0.r - init.theta) + ctl.ki * init.integral));
   p.effects = model.effects;
   std::unique_ptr<VirtualOmni> omni;
   std::string last_error;
@@ -382,7 +390,8 @@ void simulate_digital(const JointModelAtPose& model, const Controller& ctl, cons
     double d = 0.0;
     if (k > 0) d = ctl.derivative_on == DerivativeOn::kError ? (e - e_prev) / T
                                                              : -(theta - theta_prev) / T;
-    const double v = ctl.clamp(ctl.kp * e + ctl.ki * integral + ctl.kd * d);
+    const double v =
+        open_loop ? ref.at(t).r : ctl.clamp(ctl.kp * e + ctl.ki * integral + ctl.kd * d);
     tk[k] = t;
     th[k] = theta;
     thd[k] = omni->theta_dot();
@@ -430,10 +439,14 @@ std::vector<double> uniform_times(double duration_s, double dt_s, double t0_s) {
   return out;
 }
 
-SimulationResult simulate(const JointModelAtPose& model, const Controller& controller,
-                          const Reference& reference, const std::vector<double>& times_s,
-                          const InitialState& initial, const SimulationOptions& options,
-                          const KnownInputSeries& known_inputs) {
+namespace {
+
+/// simulate() and simulate_open_loop(): `reference` is r, or the command v when `open_loop`.
+SimulationResult simulate_any(const JointModelAtPose& model, const Controller& controller,
+                              bool open_loop, const Reference& reference,
+                              const std::vector<double>& times_s, const InitialState& initial,
+                              const SimulationOptions& options,
+                              const KnownInputSeries& known_inputs) {
   SimulationResult res;
   if (times_s.empty()) {
     res.message = "no output times";
@@ -469,10 +482,11 @@ SimulationResult simulate(const JointModelAtPose& model, const Controller& contr
       res.message = "loop_period_s must be finite";
       return res;
     }
-    simulate_digital(model, controller, reference, times_s, initial, options, known_inputs, res);
+    simulate_digital(model, controller, open_loop, reference, times_s, initial, options,
+                     known_inputs, res);
     return res;
   }
-  ClosedLoop loop(model, controller, options, known_inputs, res);
+  ClosedLoop loop(model, controller, open_loop, options, known_inputs, res);
   const State x0{initial.theta, initial.theta_dot, initial.integral};
   if (options.integrator == Integrator::kCvode && model.effects.delay_s > 0.0) {
     res.message = "a time delay needs the fixed-point RK4 integrator or the digital loop";
@@ -484,6 +498,24 @@ SimulationResult simulate(const JointModelAtPose& model, const Controller& contr
     simulate_rk4(loop, reference, times_s, x0, options, res);
   }
   return res;
+}
+
+}  // namespace
+
+SimulationResult simulate(const JointModelAtPose& model, const Controller& controller,
+                          const Reference& reference, const std::vector<double>& times_s,
+                          const InitialState& initial, const SimulationOptions& options,
+                          const KnownInputSeries& known_inputs) {
+  return simulate_any(model, controller, false, reference, times_s, initial, options,
+                      known_inputs);
+}
+
+SimulationResult simulate_open_loop(const JointModelAtPose& model, const Reference& command,
+                                    const std::vector<double>& times_s,
+                                    const InitialState& initial, const SimulationOptions& options,
+                                    const KnownInputSeries& known_inputs) {
+  return simulate_any(model, Controller{}, true, command, times_s, initial, options,
+                      known_inputs);
 }
 
 }  // namespace alphainv

@@ -23,7 +23,9 @@ enum class KnownInputUse {
 };
 
 /// Simulates `run` (file comment) with `model` under `controller` from `initial` (usually
-/// initial_state_of(run), with a command history when known). Never throws: the result says.
+/// initial_state_of(run), with a command history when known). With no controller
+/// (is_open_loop(): kp = ki = kd = 0) the run is open loop: its recorded v drives the plant
+/// (simulate_open_loop). Never throws: the result says.
 SimulationResult simulate_recorded_run(const JointModelAtPose& model, const Controller& controller,
                                        const RunData& run, const InitialState& initial,
                                        const SimulationOptions& options,

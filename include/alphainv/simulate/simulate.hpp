@@ -122,6 +122,23 @@ SimulationResult simulate(const JointModelAtPose& model, const Controller& contr
                           const InitialState& initial = {}, const SimulationOptions& options = {},
                           const KnownInputSeries& known_inputs = KnownInputSeries{});
 
+/// Simulates an open-loop run: θ̈ + C(α, I)·θ̇ = β̃(α, I)·u with the command v(t) = command.r(t)
+/// (a recorded voltage, e.g. SampledReference of a run's v column; its slopes r_dot, r_ddot give
+/// α by eq. (33)) instead of a controller's law; no clamp (the command is what was applied). The
+/// digital loop (options.loop_period_s > 0) holds command.r(t_k) over tick k. Otherwise as
+/// simulate().
+SimulationResult simulate_open_loop(const JointModelAtPose& model, const Reference& command,
+                                    const std::vector<double>& times_s,
+                                    const InitialState& initial = {},
+                                    const SimulationOptions& options = {},
+                                    const KnownInputSeries& known_inputs = KnownInputSeries{});
+
+/// Whether `controller` is no controller: kp = ki = kd = 0 (kUnstatedController, a dataset that
+/// states none): the run is open loop, its recorded v the input. Real-time safe.
+inline bool is_open_loop(const Controller& controller) noexcept {
+  return controller.kp == 0.0 && controller.ki == 0.0 && controller.kd == 0.0;
+}
+
 /// Uniform time grid t0, t0 + dt, …, up to and including duration (within dt/2).
 std::vector<double> uniform_times(double duration_s, double dt_s, double t0_s = 0.0);
 
