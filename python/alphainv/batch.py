@@ -127,6 +127,8 @@ def _fit_row(name: str, result) -> dict:
             row[f"alpha_{n}"] = float(x)
             row[f"c_n1_{n}"] = float(c)
         row["beta_n1_0"], row["beta_n1_1"] = a.beta_n1
+        af = result.alpha_fit
+        row["alpha_data_min"], row["alpha_data_max"] = af["alpha_data_min"], af["alpha_data_max"]
     row["model_json"] = model.to_json()
     row["report"] = result.brief_report
     return row
@@ -222,7 +224,8 @@ def fit_many(datasets: Iterable[Any], client: Any = None, *, workers: Optional[i
     to 1 per dataset). progress(done, total, row) is called here as rows arrive. A row holds
     name, ok (usable), error (empty or why the task failed, with error_field/file/line), the
     figures of omni_fit fit --json flattened (linear_*, alpha_*, step_error_ratio), the
-    alpha-model (alpha_n, c_n1_n, beta_n1_0/1), c0_bar with an inertia model, seconds, and
+    alpha-model (alpha_n, c_n1_n, beta_n1_0/1, and alpha_data_min/max: the range of alpha the
+    sine runs cover, where the model is backed by data), c0_bar with an inertia model, seconds, and
     model_json (model.json text).
     """
     return _run("fit_many", datasets, client, workers, names, progress, options)

@@ -126,6 +126,15 @@ struct FitOutcome {
     d["phase_deg"] = to_array(ph), d["physical"] = to_array(phys).attr("astype")("bool");
     return d;
   }
+  py::dict alpha_fit() const {
+    const AlphaFitResult& a = fit.alpha;
+    py::dict d;
+    d["ok"] = a.ok, d["message"] = a.message, d["source"] = fit.alpha_source;
+    d["c_rms_relative"] = num(a.c_rms_relative), d["beta_rms_relative"] = num(a.beta_rms_relative);
+    d["points_used"] = a.points_used, d["refined"] = a.refined;
+    d["alpha_data_min"] = num(a.alpha_data_min), d["alpha_data_max"] = num(a.alpha_data_max);
+    return d;
+  }
   py::list poses() const {
     py::list out;
     for (const PoseFit& p : fit.poses) {
@@ -186,6 +195,7 @@ struct FitOutcome {
     for (auto item : sine_points()) pts[item.first] = item.second.attr("tolist")();
     d["sine_points"] = pts;
     d["poses"] = poses();
+    d["alpha_fit"] = alpha_fit();
     d["report"] = fit.full_report();
     if (refined) {
       py::dict r;
@@ -490,6 +500,9 @@ the figures (the names of `omni_fit fit --json`), the model (model.json), the re
                              "report.md as omni_fit writes it, without its figures")
       .def_property_readonly("sine_points", &FitOutcome::sine_points,
                              "the local points (19)-(20), (36) per sine run, as numpy arrays")
+      .def_property_readonly("alpha_fit", &FitOutcome::alpha_fit,
+                             "the alpha-model fit: ok, message, relative RMS of C and beta~ over the "
+                             "points, points_used, alpha_data_min/max (where the data say anything)")
       .def_property_readonly("poses", &FitOutcome::poses, "per pose: the global linear model (22), errors")
       .def_property_readonly("kp", [](const FitOutcome& f) { return f.fit.kp; })
       .def_property_readonly("loop_period_s", [](const FitOutcome& f) { return f.fit.loop_period_s; })

@@ -58,3 +58,14 @@ def test_diagnose_many_rows(small):
     ok, bad = res.rows
     assert ok["ok"] and ok["effect"] == "none" and ok["error_before"] > 0.0
     assert bad["error_file"] == "/nonexistent/dataset.json"
+
+
+def test_sweep_confusion_matrix():
+    # omni_fit sweep --quick's cases for none and offset_torque at seed 4 (its ctest names the
+    # offset there), the search limited to the offset to keep it short.
+    res = alphainv.batch.sweep([4], ["none", "offset_torque"], workers=2, candidates=["offset_torque"])
+    assert res.matrix == {"none": {"none": 1}, "offset_torque": {"offset_torque": 1}}
+    assert [r["hidden"] for r in res.rows] == ["none", "offset_torque"]
+    offset = res.rows[1]
+    assert offset["offset_v"] == pytest.approx(0.02, rel=0.15)
+    assert "| offset_torque | 0 | 0 | **1** |" in res.matrix_text and "Right: 2/2" in res.matrix_text
