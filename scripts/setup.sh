@@ -9,6 +9,8 @@ packages=(
   libeigen3-dev libceres-dev libsundials-dev libnlopt-dev libnlopt-cxx-dev libhidapi-dev
   libgtest-dev libgmock-dev libbenchmark-dev nlohmann-json3-dev libcli11-dev libspdlog-dev
   gnuplot-nox rt-tests
+  pybind11-dev python3-dev python3-numpy python3-pytest python3-distributed python3-pandas
+  python3-matplotlib
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -12,6 +12,8 @@
 #include "alphainv/data/dataset.hpp"
 #include "alphainv/diagnose/diagnose.hpp"
 #include "alphainv/diagnose/diagnose_report.hpp"
+#include "alphainv/diagnose/diagnosed_model_file.hpp"
+#include "alphainv/identify/fit_model_file.hpp"
 #include "alphainv/error.hpp"
 #include "alphainv/data/model_file.hpp"
 #include "alphainv/simulate/model_simulation.hpp"
@@ -61,24 +63,6 @@ nlohmann::json result_json(const DiagnoseResult& res) {
   }
   j["named"] = named;
   return j;
-}
-
-/// The model file with the diagnosed effects and coefficient factors folded in.
-void apply_to_model(ModelFile& m, const DiagnoseResult& r) {
-  m.effects = r.effects;
-  if (m.has_alpha_model && r.alpha) m.alpha = *r.alpha;  // re-identified with the effects
-  if (m.has_alpha_model) {
-    auto f = [](const std::vector<double>& v, std::size_t k) {
-      return v.empty() ? 1.0 : v[std::min(k, v.size() - 1)];
-    };
-    for (std::size_t k = 0; k < m.alpha.n_breakpoints; ++k) m.alpha.c_n1[k] /= f(r.scales.c, k);
-    m.alpha.beta_n1[0] /= f(r.scales.beta, 0);
-    m.alpha.beta_n1[1] /= f(r.scales.beta, 1);
-  }
-  std::string names;
-  for (EffectKind k : r.effects_named) names += (names.empty() ? "" : ", ") + std::string(effect_name(k));
-  m.notes.push_back("omni_fit diagnose added: " + (names.empty() ? std::string("nothing (none)") : names) +
-                    "; the α-model was " + (r.alpha ? std::string("re-identified from the sine runs with the effects in the plant input, then its ") : std::string("kept; its ")) + "C_n and β̃ were refitted with it by output error (factors applied to C_n1, β̃_n1)");
 }
 
 /// Residual figures: θ − θ_sim before and after for the worst runs (at most 3).
@@ -181,16 +165,7 @@ int run_diagnose(const DiagnoseCommandOptions& o) {
   if (!o.model_path.empty()) {
     try {
       model = read_model_file(o.model_path);
-      for (std::size_t i = 0; i < ds.runs.size(); ++i) {
-        DiagnoseRun r;
-        r.data = &data[i];
-        r.controller = ds.runs[i].controller;
-        r.model = model_at(model, ds.runs[i].gamma1_deg, ds.runs[i].gamma2_deg, model.has_alpha_model);
-        r.name = ds.runs[i].file;
-        r.kind = ds.runs[i].kind;
-        r.freq_hz = ds.runs[i].freq_hz;
-        runs.push_back(r);
-      }
+      runs = diagnose_runs(ds, data, model);
     } catch (const Error& e) {
       std::fprintf(stderr, "omni_fit diagnose: %s\n", e.what());
       return 2;
@@ -206,7 +181,7 @@ int run_diagnose(const DiagnoseCommandOptions& o) {
     dopt.simulation = fit.simulation;
     runs = diagnose_runs(ds, data, fit);
     try {
-      model = make_model_file(ds, fit);
+      model = fit_model_file(ds, fit);
     } catch (const Error& e) {
       std::fprintf(stderr, "omni_fit diagnose: %s\n", e.what());
       return 2;
@@ -224,7 +199,7 @@ int run_diagnose(const DiagnoseCommandOptions& o) {
     try {
       fs::create_directories(out);
       ModelFile m = model;
-      apply_to_model(m, res);
+      apply_diagnosis(m, res);
       write_model_file(out / "model.json", m);
       std::string warning;
       const std::string figs =

@@ -15,6 +15,7 @@
 #include "alphainv/diagnose/effect_refinement.hpp"
 #include "alphainv/error.hpp"
 #include "alphainv/identify/dataset_split.hpp"
+#include "alphainv/identify/fit_model_file.hpp"
 #include "alphainv/identify/fit_pipeline.hpp"
 #include "alphainv/identify/fit_report.hpp"
 #include "alphainv/identify/validation.hpp"
@@ -91,37 +92,6 @@ std::string joined(const std::vector<std::string>& dirs) {
 
 }  // namespace
 
-ModelFile make_model_file(const Dataset& ds, const DatasetFit& fit) {
-  ModelFile model;
-  model.tool_version = "alphainv 0.1.0";
-  std::vector<std::string> files;
-  for (const auto& r : ds.runs) files.push_back(r.file);
-  model.dataset_hash = hash_dataset(ds.dir, files);
-  model.dataset_path = fs::absolute(ds.dir).string();
-  model.position_unit = ds.position_unit;
-  model.command_unit = ds.command_unit;
-  model.controller = ds.runs.front().controller;
-  model.has_inertia_model = fit.has_inertia_model;
-  if (fit.has_inertia_model) {
-    model.linear = fit.inertia.model;
-    for (std::size_t k = 0; k < 6; ++k) model.linear_se[k] = fit.inertia.standard_errors[k];
-  }
-  for (const auto& p : fit.poses) {
-    if (!p.linear.valid) continue;
-    model.poses.push_back({p.gamma1_deg, p.gamma2_deg, p.linear.c_linear, p.linear.beta_tilde_linear});
-  }
-  model.has_alpha_model = fit.alpha.ok;
-  if (fit.alpha.ok) {
-    model.alpha = fit.alpha.model;
-    model.c_n1_se = fit.alpha.c_n1_se;
-    model.beta_n1_se = fit.alpha.beta_n1_se;
-  }
-  model.effects = fit.effects;  // the known effects the model was fitted with
-  model.loop_period_s = fit.simulation.loop_period_s;  // the simulation the model was identified with
-  model.notes = fit.notes;
-  return model;
-}
-
 int run_fit(const FitCommandOptions& opt) {
   Dataset ds;
   std::vector<RunData> data;
@@ -180,7 +150,7 @@ int run_fit(const FitCommandOptions& opt) {
 
   ModelFile model;
   try {
-    model = make_model_file(ds, fit);
+    model = fit_model_file(ds, fit);
   } catch (const Error& e) {
     std::fprintf(stderr, "omni_fit fit: %s\n", e.what());
     return 2;

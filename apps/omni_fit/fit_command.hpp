@@ -32,7 +32,4 @@ struct FitCommandOptions {
 /// `omni_fit fit`: returns the process exit code (0 ok, 2 bad input, 3 fit failure).
 int run_fit(const FitCommandOptions& options);
 
-/// model.json contents of a fit of `ds` (throws alphainv::Error when the dataset cannot be hashed).
-alphainv::ModelFile make_model_file(const alphainv::Dataset& ds, const alphainv::DatasetFit& fit);
-
 }  // namespace omni_fit

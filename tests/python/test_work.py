@@ -1,0 +1,125 @@
+"""The work in Python: fit of generated data against its truth and against `omni_fit fit` on
+the same data, the progress callback, simulate against the closed-form steady state of the
+linear loop, validate, diagnose naming a hidden effect, and errors naming the option."""
+
+import json
+import math
+import subprocess
+
+import numpy as np
+import pytest
+
+import alphainv
+
+from conftest import BUILD_DIR, truth_alpha_model
+
+
+@pytest.fixture(scope="module")
+def fitted(one_pose):
+    return alphainv.fit(one_pose, threads=1)
+
+
+def test_fit_recovers_the_plants_damping_along_the_data(one_pose, fitted):
+    assert fitted.usable and fitted.figures["runs"] == 10 and fitted.figures["poses"] == 1
+    truth = truth_alpha_model(one_pose)
+    inertia = one_pose[0].extra["truth"]["inertia"]
+    pts = fitted.sine_points
+    assert len(pts["alpha_data"]) == 9 and pts["physical"].all()
+    # the local points (19)-(20) against the plant's C and beta~ at the same alpha
+    np.testing.assert_allclose(pts["c_data"], truth.damping(pts["alpha_data"], inertia), rtol=0.01)
+    np.testing.assert_allclose(pts["beta_tilde_data"], truth.beta_tilde(pts["alpha_data"], inertia), rtol=0.005)
+    # the fitted alpha-model (one pose: I = 1, C_n1 = 1/C_n) along the data
+    m = fitted.model.alpha_model
+    np.testing.assert_allclose(m.damping(pts["alpha_data"], 1.0), truth.damping(pts["alpha_data"], inertia), rtol=0.04)
+    np.testing.assert_allclose(m.beta_tilde(pts["alpha_data"], 1.0), truth.beta_tilde(pts["alpha_data"], inertia), rtol=0.005)
+    # the alpha-model predicts the square run better than the linear one
+    assert fitted.figures["alpha"]["step_median_abs_err"] < fitted.figures["linear"]["step_median_abs_err"]
+    d = fitted.to_dict()
+    assert d["model"]["schema"] == "alphainv-model/1" and d["figures"] == fitted.figures
+    assert "dataset fit: usable" in fitted.brief_report and "# " in fitted.report_markdown
+
+
+def test_fit_gives_the_numbers_of_omni_fit_fit(one_pose, fitted, tmp_path):
+    omni_fit = BUILD_DIR / "apps" / "omni_fit" / "omni_fit"
+    if not omni_fit.exists():
+        pytest.skip("omni_fit not built")
+    one_pose.write(tmp_path / "ds")
+    out = subprocess.run([str(omni_fit), "fit", str(tmp_path / "ds"), "-o", str(tmp_path / "fit"),
+                          "--json", "--no-plots", "--threads", "1"], capture_output=True, text=True, check=True)
+    j = json.loads(out.stdout)
+    assert j["linear"] == fitted.figures["linear"] and j["alpha"] == fitted.figures["alpha"]
+    cli_model = alphainv.Model.read(tmp_path / "fit" / "model.json")
+    np.testing.assert_array_equal(cli_model.alpha_model.c_n1, fitted.model.alpha_model.c_n1)
+
+
+def test_progress_callback_and_its_exceptions(one_pose):
+    seen = []
+    alphainv.fit(one_pose, threads=2, progress=lambda stage, done, total: seen.append((stage, done, total)))
+    stages = {s for s, _, _ in seen}
+    assert {"local fits", "validation simulations"} <= stages
+    assert all(0 <= d <= n for _, d, n in seen)
+
+    def boom(stage, done, total):
+        raise KeyError("stop here")
+    with pytest.raises(KeyError, match="stop here"):
+        alphainv.fit(one_pose, threads=1, progress=boom)
+
+
+def test_bad_options_raise_naming_the_option(one_pose):
+    with pytest.raises(alphainv.Error) as e:
+        alphainv.fit(one_pose, n_breakpoint=4)
+    assert e.value.field == "n_breakpoint" and "n_breakpoints" in e.value.message
+    with pytest.raises(alphainv.Error) as e:
+        alphainv.fit(one_pose, n_breakpoints=12)
+    assert "n_breakpoints" in e.value.field
+    with pytest.raises(alphainv.Error) as e:
+        alphainv.fit(one_pose, settle_fraction="half")
+    assert e.value.field == "settle_fraction"
+    with pytest.raises(alphainv.Error) as e:
+        alphainv.fit("/nonexistent/dataset")
+    assert e.value.file == "/nonexistent/dataset/dataset.json"
+
+
+def test_simulate_matches_the_linear_loops_steady_state():
+    # The global linear model at I: theta'' + C theta' = beta~ kp (r - theta), so theta/r at w is
+    # b/(b - w^2 + jCw) with b = kp beta~ (eqs. 24-26 in eq. 43).
+    model = alphainv.Model(alpha_model=alphainv.AlphaModel.paper(), linear=alphainv.LinearModel.paper(),
+                           controller=alphainv.Controller(kp=2.0))
+    f, amp = 2.0, 0.07
+    res = alphainv.simulate(model, (60.08, 87.0), "sine", freq_hz=f, amplitude_rad=amp, duration_s=12.0,
+                            use_alpha=False)
+    assert res.ok and res.figures["samples"] == 12001
+    joint, _ = model.at_pose(60.08, 87.0, use_alpha=False)
+    w, b, c = 2 * math.pi * f, 2.0 * joint.beta_tilde_linear, joint.c_linear
+    gain = abs(b / complex(b - w * w, c * w))
+    t, theta = res.run.t, res.run.theta
+    last = t >= 12.0 - 2.0 / f
+    assert (theta[last].max() - theta[last].min()) / 2 == pytest.approx(gain * amp, rel=2e-3)
+    assert set(res.to_frame().columns) >= {"t", "r", "theta", "v", "alpha", "C", "beta_tilde"}
+    with pytest.raises(alphainv.Error) as e:
+        alphainv.simulate(model, (60.08, 87.0), "sine", freq_hz=-1.0)
+    assert e.value.field == "freq_hz"
+    with pytest.raises(alphainv.Error) as e:
+        alphainv.simulate(model, None)
+    assert e.value.field == "gamma1_deg"
+
+
+def test_validate_the_paper_model_on_generated_runs():
+    ds = alphainv.Dataset.generate(2, pose=2)  # with the bundled Coulomb friction the model lacks
+    model = alphainv.Model(alpha_model=alphainv.AlphaModel.paper(), linear=alphainv.LinearModel.paper(),
+                           controller=alphainv.Controller(kp=2.0))
+    v = alphainv.validate(model, ds, threads=1)
+    fig = v.figures
+    assert v.ok and fig["runs"] == 10 and fig["runs_tested"] == 10 and fig["runs_white"] == 0
+    assert fig["position"]["n"] == 62010 and 0.0 < fig["position"]["rms"] < 0.02
+    assert len(v.theta_simulated(0)) == len(ds[0])
+
+
+def test_diagnose_names_a_hidden_offset_torque():
+    ds = alphainv.Dataset.generate(4, pose=4, effects="offset_torque=0.02")
+    d = alphainv.diagnose(ds, threads=2)
+    assert d.ok and d.effects_named == ["offset_torque"]
+    assert d.effects.offset_v == pytest.approx(0.02, rel=0.15)
+    assert d.error_after < 0.5 * d.error_before
+    assert d.model.effects.offset_v == d.effects.offset_v
+    assert d.to_dict()["figures"]["effect"] == "offset_torque" and "offset_torque" in d.report_markdown
