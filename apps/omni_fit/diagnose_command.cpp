@@ -62,6 +62,13 @@ nlohmann::json result_json(const DiagnoseResult& res) {
                      {"error_after", num(rd.error_after)}});
   }
   j["named"] = named;
+  // The verdict on the final model against the noise floor estimated from the data.
+  j["verdict"] = verdict_name(res.verdict.verdict);
+  j["noise_floor"] = num(res.noise_floor.rms);
+  nlohmann::json unexplained = nlohmann::json::array();
+  for (const UnexplainedPart& u : res.verdict.unexplained)
+    unexplained.push_back({{"where", u.where}, {"size", num(u.size)}, {"ratio", num(u.ratio)}});
+  j["unexplained"] = unexplained;
   return j;
 }
 
@@ -130,7 +137,9 @@ CLI::App* add_diagnose_subcommand(CLI::App& app, DiagnoseCommandOptions& o) {
   c->add_flag("--json", o.json, "print one JSON object to stdout");
   c->add_flag("-q,--quiet", o.quiet, "print nothing but errors");
   c->add_flag("--no-plots", o.no_plots, "no residual figures");
-  c->add_option("--max-effects", o.max_effects, "rounds: effects to name at most")
+  c->add_option("--max-effects", o.max_effects,
+                 "rounds: effects to name at most (rounds go on while an effect is named and "
+                 "structure remains above the noise floor)")
       ->capture_default_str()->check(CLI::Range(1, 7));
   c->add_option("--threads", o.threads, "threads (default: all cores)");
   c->add_option("--fit-runs", o.max_fit_runs, "runs used to fit and score the candidates")
@@ -221,6 +230,7 @@ int run_diagnose(const DiagnoseCommandOptions& o) {
     for (const auto& f : res.before.findings) std::printf("  before: %s\n", f.c_str());
     for (EffectKind k : res.effects_named)
       std::printf("  %s: %s\n", effect_name(k), effect_parameters_text(res.effects, k).c_str());
+    std::printf("  verdict: %s\n", res.verdict.text().c_str());
   }
   return 0;
 }

@@ -16,7 +16,8 @@ struct DiagnoseCommandOptions {
   bool json = false;
   bool quiet = false;
   bool no_plots = false;
-  std::size_t max_effects = 1;
+  /// --max-effects: rounds at most; they go on while an effect is named and structure remains
+  std::size_t max_effects = 3;
   unsigned threads = 0;
   std::size_t max_fit_runs = 20;
 };

@@ -149,6 +149,7 @@ int run_sweep(const SweepCommandOptions& o) {
   }
   std::map<std::pair<int, int>, int> matrix;  // (true, named) → count
   int right = 0, named_effect = 0, cut_ok = 0, none_cases = 0, none_right = 0;
+  int none_explained = 0, right_explained = 0;  // ... and the verdict: explained to the noise floor
   nlohmann::json jcases = nlohmann::json::array();
   const auto t0 = std::chrono::steady_clock::now();
   for (std::size_t ci = 0; ci < cases.size(); ++ci) {
@@ -170,19 +171,24 @@ int run_sweep(const SweepCommandOptions& o) {
     ++matrix[{static_cast<int>(c.effect), static_cast<int>(named)}];
     const bool ok_name = named == c.effect;
     right += ok_name;
+    const bool explained = r.ok && r.verdict.verdict == ResidualVerdict::kExplained;
     if (c.effect == EffectKind::kNone) {
       ++none_cases;
       none_right += ok_name;
+      none_explained += ok_name && explained;
+    } else {
+      right_explained += ok_name && explained;
     }
     if (named != EffectKind::kNone) {
       ++named_effect;
       cut_ok += cut >= 0.30;
     }
     const double magnitude = hidden_magnitude(c);
-    std::fprintf(stderr, "[%zu/%zu] %-16s %-8.3g noise %.0e seed %llu -> %-16s RMS %.3g -> %.3g (%.0f %%) %.1f s%s\n",
+    std::fprintf(stderr, "[%zu/%zu] %-16s %-8.3g noise %.0e seed %llu -> %-16s RMS %.3g -> %.3g (%.0f %%) %.1f s, %s%s\n",
                  ci + 1, cases.size(), effect_name(c.effect), magnitude, c.noise_std_rad,
                  static_cast<unsigned long long>(c.seed), effect_name(named), r.error_before,
-                 r.error_after, 100.0 * cut, r.seconds, ok_name ? "" : "  WRONG");
+                 r.error_after, 100.0 * cut, r.seconds,
+                 explained ? "explained" : "structure remains", ok_name ? "" : "  WRONG");
     Effects hidden;
     apply(c, hidden);
     // The same dataset from the command line (omni_gen), to look at one case closely.
@@ -195,7 +201,9 @@ int run_sweep(const SweepCommandOptions& o) {
                       {"hidden", effects_text(hidden)}, {"generate", gen_cmd.str()},
                       {"noise_std_rad", c.noise_std_rad}, {"seed", c.seed},
                       {"named", effect_name(named)}, {"error_before", r.error_before},
-                      {"error_after", r.error_after}, {"seconds", r.seconds}});
+                      {"error_after", r.error_after}, {"seconds", r.seconds},
+                      {"verdict", verdict_name(r.verdict.verdict)},
+                      {"noise_floor", r.noise_floor.rms}});
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   // The matrix.
@@ -224,7 +232,10 @@ int run_sweep(const SweepCommandOptions& o) {
   md << "\nRight effect named: " << right - none_right << "/" << effect_cases
      << " effect cases; `none` on effect-free data: " << none_right << "/" << none_cases
      << "; RMS error cut by >= 30 % in " << cut_ok << "/" << named_effect
-     << " cases where an effect was named.\n";
+     << " cases where an effect was named.\nVerdict: effect-free named `none` and explained to the "
+        "noise floor: "
+     << none_explained << "/" << none_cases << "; right effect named and explained: "
+     << right_explained << "/" << effect_cases << ".\n";
   std::printf("%s", md.str().c_str());
   if (!o.out_file.empty()) {
     try {

@@ -92,6 +92,27 @@ std::vector<std::size_t> choose_fit_runs(const std::vector<DiagnoseRun>& runs, s
   return out;
 }
 
+/// The residuals θ − θ_sim of `sims` (one per run; empty for a failed run: left out) as the
+/// verdict reads them.
+std::vector<ResidualSeries> residual_series(const std::vector<DiagnoseRun>& runs,
+                                            const std::vector<std::vector<double>>& sims) {
+  std::vector<ResidualSeries> out;
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    const RunData& d = *runs[i].data;
+    if (sims[i].size() != d.size()) continue;
+    ResidualSeries s;
+    s.name = runs[i].name;
+    s.kind = runs[i].kind;
+    s.freq_hz = runs[i].freq_hz;
+    s.t = d.t;
+    s.r = d.r;
+    s.residual.resize(d.size());
+    for (std::size_t k = 0; k < d.size(); ++k) s.residual[k] = d.theta[k] - sims[i][k];
+    out.push_back(std::move(s));
+  }
+  return out;
+}
+
 }  // namespace
 
 namespace diagnose_detail {
@@ -1320,6 +1341,10 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
   const std::vector<DiagnoseRun> no_runs;
   // (runs_in must outlive reid: it keeps pointers to the sine runs)
   const Reidentifier reid(opt.reidentify ? runs_in : no_runs, opt.simulation.loop_period_s);
+  // The noise floor from the residual of the model given (its white part does not depend on
+  // the model), and the verdict on that model.
+  res.noise_floor = estimate_noise_floor(residual_series(runs_in, sims0));
+  res.verdict_before = judge_residual(residual_series(runs_in, sims0), res.noise_floor);
   res.termination = DiagnoseTermination::kMaxEffects;
   for (std::size_t round = 0; round < opt.max_effects; ++round) {
     CandidateScore settled;
@@ -1343,6 +1368,16 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
     model.alpha = settled.alpha;
     model.named.push_back(named);
     res.effects_named.push_back(named);
+    if (round + 1 < opt.max_effects) {
+      // Another round only while structure remains.
+      const auto sims = simulate_diagnosed(runs_in, model.effects, model.scales, opt.simulation,
+                                           opt.threads, model.alpha);
+      if (judge_residual(residual_series(runs_in, sims), res.noise_floor).verdict ==
+          ResidualVerdict::kExplained) {
+        res.termination = DiagnoseTermination::kExplained;
+        break;
+      }
+    }
   }
   res.effects = model.effects;
   res.scales = model.scales;
@@ -1351,6 +1386,7 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_in, const DiagnoseO
       simulate_diagnosed(runs_in, model.effects, model.scales, opt.simulation, opt.threads, model.alpha);
   res.after = locate(runs_in, sims1);
   res.error_after = res.after.rms;
+  res.verdict = judge_residual(residual_series(runs_in, sims1), res.noise_floor);
   res.ok = !res.rounds.empty() && res.message.empty();
   res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   return res;

@@ -55,6 +55,7 @@ double run_rms_at(const ResidualLocation& loc, std::size_t i) {
 const char* termination_name(DiagnoseTermination termination) {
   switch (termination) {
     case DiagnoseTermination::kNoneNamed: return "none named";
+    case DiagnoseTermination::kExplained: return "explained";
     case DiagnoseTermination::kMaxEffects: return "max effects";
     case DiagnoseTermination::kInvalidOptions: return "invalid options";
     case DiagnoseTermination::kInvalidInput: return "invalid input";
@@ -78,7 +79,12 @@ std::string DiagnoseResult::brief_report() const {
   std::snprintf(b, sizeof b, "; RMS of theta - theta_sim %s -> %s (%zu runs, %.1f s)",
                 fmt(error_before).c_str(), fmt(error_after).c_str(), before.run_rms.size(),
                 seconds);
-  return named_text(effects_named) + b;
+  std::string v;
+  if (std::isfinite(noise_floor.rms)) {
+    v = verdict.verdict == ResidualVerdict::kExplained ? "; explained to the noise floor"
+                                                       : "; structure remains";
+  }
+  return named_text(effects_named) + b + v;
 }
 
 std::string DiagnoseResult::full_report() const {
@@ -115,6 +121,7 @@ std::string DiagnoseResult::full_report() const {
   for (const auto& f : before.findings) s << "  - " << f << "\n";
   s << "After:\n";
   for (const auto& f : after.findings) s << "  - " << f << "\n";
+  if (std::isfinite(noise_floor.rms)) s << "Verdict: " << verdict.text() << "\n";
   return s.str();
 }
 
@@ -166,6 +173,18 @@ std::string diagnose_report_markdown(const DiagnoseResult& r, const std::vector<
   }
   s << "\n## Where the model is wrong now (after)\n\n";
   for (const auto& f : r.after.findings) s << "- " << f << "\n";
+  if (!std::isfinite(r.noise_floor.rms)) return s.str();  // not judged
+  s << "\n## Verdict\n\nNoise floor (the residual's white part, from its second differences): "
+    << fmt(r.noise_floor.white) << "; the sine runs' steady state not repeating from cycle to "
+    << "cycle: " << fmt(r.noise_floor.cycle_to_cycle) << ".\n\n**"
+    << (r.verdict.verdict == ResidualVerdict::kExplained ? "Explained to the noise floor"
+                                                         : "Structure remains")
+    << "**: " << r.verdict.text() << "\n";
+  if (!r.verdict.unexplained.empty()) {
+    s << "\n| where | RMS | × floor |\n|---|---|---|\n";
+    for (const UnexplainedPart& u : r.verdict.unexplained)
+      s << "| " << u.where << " | " << fmt(u.size) << " | " << fmt(u.ratio, "%.1f") << " |\n";
+  }
   return s.str();
 }
 

@@ -183,6 +183,30 @@ TEST(DiagnoseSweep, SaysNoneOnEffectFreeData) {
   EXPECT_EQ(r.rounds.front().named, EffectKind::kNone);
   EXPECT_DOUBLE_EQ(r.error_after, r.error_before);  // the model is left as it was
   EXPECT_FALSE(r.before.findings.empty());
+  // The verdict: explained to the noise floor, which is the plant's measurement noise
+  // (σ = 5e-5 rad and the encoder's 1.5e-4 rad steps, q/√12: together 6.6e-5 rad).
+  EXPECT_NEAR(r.noise_floor.rms, std::hypot(5e-5, 1.5e-4 / std::sqrt(12.0)), 0.15 * 6.6e-5);
+  EXPECT_EQ(r.verdict.verdict, ResidualVerdict::kExplained) << r.verdict.text();
+  EXPECT_NE(r.brief_report().find("; explained to the noise floor"), std::string::npos);
+}
+
+TEST(DiagnoseSweep, NeverACleanBillWhileStructureRemains) {
+  // Cogging and a saturation, the search limited to an offset: whatever it names, the residual
+  // stays many times the floor, and the verdict says so and where (the sine runs' repeating
+  // error, harmonics of the fundamental).
+  Effects hidden;
+  hidden.cogging_v = 0.02;
+  hidden.saturation_v = 0.12;
+  const GeneratedDataset g = one_pose_dataset(hidden, 8);
+  DiagnoseOptions o;
+  o.candidates = {EffectKind::kOffsetTorque};
+  const DiagnoseResult r = diagnose_dataset(g.index, g.runs, o);
+  ASSERT_TRUE(r.ok) << r.message;
+  EXPECT_EQ(r.verdict.verdict, ResidualVerdict::kStructureRemains);
+  ASSERT_FALSE(r.verdict.unexplained.empty());
+  EXPECT_GT(r.verdict.unexplained.front().ratio, 10.0) << r.verdict.text();
+  EXPECT_NE(r.verdict.text().find("error repeating every cycle"), std::string::npos) << r.verdict.text();
+  EXPECT_NE(r.brief_report().find("; structure remains"), std::string::npos);
 }
 
 }  // namespace

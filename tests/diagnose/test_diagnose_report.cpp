@@ -150,8 +150,10 @@ TEST(DiagnoseReport, ReportsOfARealDiagnosis) {
 
   char brief[200];
   std::snprintf(brief, sizeof brief,
-                "offset_torque; RMS of theta - theta_sim %.4g -> %.4g (%zu runs, %.1f s)",
-                r.error_before, r.error_after, runs.size(), r.seconds);
+                "offset_torque; RMS of theta - theta_sim %.4g -> %.4g (%zu runs, %.1f s)%s",
+                r.error_before, r.error_after, runs.size(), r.seconds,
+                r.verdict.verdict == ResidualVerdict::kExplained ? "; explained to the noise floor"
+                                                                 : "; structure remains");
   EXPECT_EQ(r.brief_report(), brief);
   EXPECT_EQ(runs.size(), 10u);
 
@@ -169,6 +171,7 @@ TEST(DiagnoseReport, ReportsOfARealDiagnosis) {
   EXPECT_NE(full.find("\n  offset_torque *   "), std::string::npos) << full;
   EXPECT_NE(full.find("\n  time_delay    "), std::string::npos) << full;
   EXPECT_NE(full.find("Before:\n  - " + r.before.findings.front()), std::string::npos) << full;
+  EXPECT_NE(full.find("\nVerdict: " + r.verdict.text() + "\n"), std::string::npos) << full;
 
   const std::string md = diagnose_report_markdown(r, runs, "generated", "fitted by the pipeline");
   EXPECT_EQ(md.rfind("# omni_fit diagnose report\n\nDataset: `generated` (10 runs; model: fitted by "
@@ -179,6 +182,7 @@ TEST(DiagnoseReport, ReportsOfARealDiagnosis) {
   EXPECT_NE(md.find("### Round 1: offset_torque (RMS error "), std::string::npos);
   EXPECT_NE(md.find("| **offset_torque** | "), std::string::npos);
   for (const DiagnoseRun& run : runs) EXPECT_NE(md.find("| " + run.name + " | "), std::string::npos);
+  EXPECT_NE(md.find("## Verdict\n\nNoise floor"), std::string::npos) << md;
 }
 
 }  // namespace

@@ -30,7 +30,10 @@
 ///    than 4 times the best candidate's, nor any but the two with the lowest training RMS (their
 ///    score is their training RMS, marked). Among candidates within 5 % of
 ///    the best score the one with fewest parameters is taken.
-/// 4. With max_effects > 1 it goes round again with the named effects kept (and refitted).
+/// 4. With max_effects > 1 it goes round again with the named effects kept (and refitted),
+///    until a round names `none` or the residual is explained to the noise floor.
+/// 5. The verdict (verdict.hpp): a noise floor estimated from the data, and whether the residual
+///    of the final model is explained to it or where structure remains, and how big.
 /// Offline; never throws on what the data cannot support: the result says.
 
 #include <cstddef>
@@ -39,6 +42,7 @@
 #include <string>
 #include <vector>
 
+#include "alphainv/diagnose/verdict.hpp"
 #include "alphainv/model/controller.hpp"
 #include "alphainv/data/dataset.hpp"
 #include "alphainv/model/effects.hpp"
@@ -147,13 +151,14 @@ struct DiagnoseRound {
 /// Why diagnose() stopped (like Ceres' TerminationType).
 enum class DiagnoseTermination {
   kNoneNamed,       ///< usable: the last round named `none` (the model is left as it was then)
+  kExplained,       ///< usable: after the last effect named the residual is at the noise floor
   kMaxEffects,      ///< usable: DiagnoseOptions::max_effects effects named
   kInvalidOptions,  ///< not usable: DiagnoseOptions::validate() refused them (message: the field)
   kInvalidInput,    ///< not usable: no runs, or a run shorter than 50 samples (message: which)
   kFailure,         ///< not usable: the model without a new effect could not be fitted
 };
 
-/// "none named", "max effects", "invalid options", "invalid input", "failure".
+/// "none named", "explained", "max effects", "invalid options", "invalid input", "failure".
 const char* termination_name(DiagnoseTermination termination);
 
 /// What diagnose() found. Like Ceres' Solver::Summary: whether it is usable (`ok`), why it
@@ -171,6 +176,11 @@ struct DiagnoseResult {
   /// before the factors); nullopt: the runs' own.
   std::optional<AlphaModel> alpha;
   ResidualLocation before, after;          ///< the residual of the model given and of the final one
+  /// The noise floor (estimated from the residual of the model given; verdict.hpp) and the
+  /// verdicts on the model given and on the final one: explained to the floor, or where
+  /// structure remains and how big against it.
+  NoiseFloor noise_floor;
+  VerdictReport verdict_before, verdict;
   double error_before = std::numeric_limits<double>::quiet_NaN();  ///< RMS of θ − θ_sim, all runs
   double error_after = std::numeric_limits<double>::quiet_NaN();
   std::vector<std::size_t> fit_runs;  ///< indices of the runs used to fit and score
@@ -181,8 +191,8 @@ struct DiagnoseResult {
   /// usable, "not usable (invalid input): run a.csv has fewer than 50 samples".
   std::string brief_report() const;
   /// Several lines: usable, termination, runs, the error before and after, the effects named
-  /// with their parameters, every round's candidates (score, folds, RMS after, note), and where
-  /// the residual concentrates before and after.
+  /// with their parameters, every round's candidates (score, folds, RMS after, note), where
+  /// the residual concentrates before and after, and the verdict (its last line).
   std::string full_report() const;
 };
 

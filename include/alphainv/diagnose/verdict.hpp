@@ -1,0 +1,117 @@
+#pragma once
+/// \file verdict.hpp
+/// The honest end of a diagnosis: a noise floor estimated from the data, and whether the
+/// residual θ − θ_sim is explained to it or structure remains, and where (state is
+/// diagnose.hpp's ResidualLocation; here: time windows, harmonics of the fundamental, runs).
+///
+/// Noise floor. The residual's white part: for white noise of standard deviation σ the second
+/// difference Δ²e_k = e_{k+1} − 2e_k + e_{k−1} has variance 6σ², while the second difference of
+/// a smooth error is of order ë·dt² (negligible at 1 kHz); σ_white = median over runs of
+/// sqrt(mean(Δ²e²)/6) (quantisation of θ enters it as the q/√12 white noise it is once θ moves).
+/// Also the cycle-to-cycle part: in the steady state of each sine run the residual is fitted by
+/// a constant and harmonics 1…10 of the reference frequency; what is left does not repeat from
+/// cycle to cycle (median over the sine runs). The floor is σ_white.
+///
+/// Judged. Run starts and the 1 s after reference jumps are transients, where the α-model's
+/// low-α end is least certain; they are reported (transient RMS) but not judged. Judged are:
+/// - each sine run's steady state (the last half of the run, whole cycles): its repeating part
+///   (constant, fundamental, harmonics 2…10) against the floor;
+/// - each other run's samples outside transients, against the floor;
+/// - time windows (0.2 s) of every run outside transients whose RMS (sine runs: of the part that
+///   does not repeat) is more than 4× the run's median window and 5× the floor (pulses, steps);
+/// - the non-repeating part of the sine runs against the floor (drift, disturbances).
+/// Structure remains when any part is more than VerdictOptions::ratio (3) times the floor.
+/// Offline.
+
+#include <cstddef>
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace alphainv {
+
+/// One run's residual, as the verdict reads it.
+struct ResidualSeries {
+  std::string name;                ///< for the words (the run's file)
+  std::string kind;                ///< "sine" (judged by harmonics), "square", "other", …
+  std::optional<double> freq_hz;   ///< reference frequency of a sine run [Hz]
+  std::vector<double> t;           ///< time [s], increasing
+  std::vector<double> r;           ///< reference [position unit] (for the jumps)
+  std::vector<double> residual;    ///< θ − θ_sim [position unit]
+};
+
+/// The noise floor of the residual [position unit].
+struct NoiseFloor {
+  /// The white part: median over runs of sqrt(mean(Δ²e²)/6) (file comment).
+  double white = std::numeric_limits<double>::quiet_NaN();
+  /// The sine runs' steady-state part that does not repeat from cycle to cycle (median over
+  /// them); NaN without sine runs.
+  double cycle_to_cycle = std::numeric_limits<double>::quiet_NaN();
+  /// The floor the residual is judged against (= white).
+  double rms = std::numeric_limits<double>::quiet_NaN();
+};
+
+/// One part of the residual the model does not explain.
+struct UnexplainedPart {
+  std::string where;  ///< e.g. "run a.csv, t = 3.2–3.6 s" or "run s.csv (2 Hz), harmonics 2–10"
+  double size = 0.0;  ///< its RMS [position unit]
+  double ratio = 0.0; ///< size / noise floor
+};
+
+/// "explained to the noise floor" or "structure remains".
+enum class ResidualVerdict { kExplained, kStructureRemains };
+
+/// "explained" or "structure_remains" (the --json value).
+const char* verdict_name(ResidualVerdict v);
+
+/// Settings of judge_residual().
+struct VerdictOptions {
+  double ratio = 3.0;           ///< a part larger than this × the floor is structure
+  double window_s = 0.2;        ///< time-window length [s]
+  double window_ratio = 4.0;    ///< … and a window more than this × its run's median window
+  double window_floor_ratio = 5.0;  ///< … and more than this × the floor
+  double transient_s = 1.0;     ///< after a run's start and reference jumps: not judged [s]
+  int harmonics = 10;           ///< harmonics of the fundamental fitted in sine runs
+};
+
+/// The steady-state decomposition of one sine run's residual.
+struct HarmonicParts {
+  double mean = 0.0;         ///< constant part [position unit]
+  double fundamental = 0.0;  ///< RMS at the reference frequency
+  double harmonics = 0.0;    ///< RMS at harmonics 2…VerdictOptions::harmonics
+  int strongest = 0;         ///< the harmonic (≥ 2) with the most energy (0: none)
+  double rest = 0.0;         ///< RMS of what does not repeat from cycle to cycle
+  double repeating = 0.0;    ///< RMS of mean + fundamental + harmonics
+  std::size_t first = 0;     ///< first sample of the steady state
+  bool ok = false;           ///< at least two whole cycles, 20 samples
+};
+
+/// What judge_residual() found.
+struct VerdictReport {
+  /// (structure_remains until judged: nothing is explained by default)
+  ResidualVerdict verdict = ResidualVerdict::kStructureRemains;
+  NoiseFloor floor;
+  std::vector<UnexplainedPart> unexplained;  ///< largest ratio first
+  /// RMS of the judged samples [position unit] and of the transients (not judged).
+  double judged_rms = std::numeric_limits<double>::quiet_NaN();
+  double transient_rms = std::numeric_limits<double>::quiet_NaN();
+  /// One line: "explained to the noise floor (judged RMS 6.1e-05 = 0.9× the floor 6.6e-05)" or
+  /// "structure remains: run s.csv (2 Hz) repeating error 0.0026 (40× the floor 6.6e-05); …".
+  std::string text() const;
+};
+
+/// The noise floor of `runs` (file comment). Runs with fewer than 10 samples are skipped.
+NoiseFloor estimate_noise_floor(const std::vector<ResidualSeries>& runs,
+                                const VerdictOptions& options = {});
+
+/// The steady state of a sine run's residual fitted by a constant and harmonics 1…n of
+/// `freq_hz` (least squares over the last half of the run, whole cycles).
+HarmonicParts harmonic_parts(const ResidualSeries& run, double freq_hz, int n_harmonics);
+
+/// The verdict on `runs` against `floor` (file comment). A floor that is not finite and > 0
+/// gives structure_remains with the reason.
+VerdictReport judge_residual(const std::vector<ResidualSeries>& runs, const NoiseFloor& floor,
+                             const VerdictOptions& options = {});
+
+}  // namespace alphainv

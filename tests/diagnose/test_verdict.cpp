@@ -1,0 +1,122 @@
+#include "alphainv/diagnose/verdict.hpp"
+
+#include <cmath>
+#include <random>
+#include <string>
+
+#include <gtest/gtest.h>
+
+namespace alphainv {
+namespace {
+
+constexpr double kTwoPi = 6.283185307179586476925;
+
+/// A 6 s run at 1 kHz: reference sin(2π f t) (kind "sine") or a square wave of period 4 s
+/// ("square"), residual white noise of standard deviation sigma (fixed seed).
+ResidualSeries run(const std::string& kind, double f, double sigma, unsigned seed) {
+  ResidualSeries s;
+  s.name = kind + ".csv";
+  s.kind = kind;
+  if (kind == "sine") s.freq_hz = f;
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> n(0.0, sigma);
+  for (int k = 0; k < 6000; ++k) {
+    const double t = 0.001 * k;
+    s.t.push_back(t);
+    s.r.push_back(kind == "sine" ? 0.07 * std::sin(kTwoPi * f * t)
+                                 : (std::fmod(t, 4.0) < 2.0 ? 0.05 : -0.05));
+    s.residual.push_back(n(rng));
+  }
+  return s;
+}
+
+TEST(Verdict, TheFloorIsTheWhitePartOfTheResidual) {
+  // White noise of σ = 1e-4 under a smooth error 50× larger (a slow drift): Δ² sees the noise
+  // only (Var Δ²e = 6σ²).
+  std::vector<ResidualSeries> runs = {run("sine", 2.0, 1e-4, 1), run("square", 0.0, 1e-4, 2),
+                                      run("sine", 5.0, 1e-4, 3)};
+  for (std::size_t k = 0; k < runs[1].t.size(); ++k) runs[1].residual[k] += 5e-3 * std::sin(0.5 * runs[1].t[k]);
+  const NoiseFloor f = estimate_noise_floor(runs);
+  EXPECT_NEAR(f.white, 1e-4, 0.05e-4);
+  EXPECT_EQ(f.rms, f.white);
+  // The sine runs' steady state, less its harmonics 1…10: the noise, less the 21 of 2500
+  // samples' degrees of freedom the fit takes.
+  EXPECT_NEAR(f.cycle_to_cycle, 1e-4 * std::sqrt(1.0 - 21.0 / 2500.0), 0.05e-4);
+}
+
+TEST(Verdict, WhiteNoiseIsExplained) {
+  const std::vector<ResidualSeries> runs = {run("sine", 2.0, 1e-4, 4), run("square", 0.0, 1e-4, 5)};
+  const VerdictReport v = judge_residual(runs, estimate_noise_floor(runs));
+  EXPECT_EQ(v.verdict, ResidualVerdict::kExplained);
+  EXPECT_TRUE(v.unexplained.empty());
+  EXPECT_NEAR(v.judged_rms, 1e-4, 0.05e-4);
+  EXPECT_EQ(v.text().rfind("explained to the noise floor: judged RMS", 0), 0u) << v.text();
+  EXPECT_STREQ(verdict_name(v.verdict), "explained");
+}
+
+TEST(Verdict, AHarmonicOfTheFundamentalIsStructureAndLocated) {
+  // A third harmonic of amplitude 1e-3 (RMS 7.07e-4 = 7× the floor) on the 2 Hz run.
+  ResidualSeries s = run("sine", 2.0, 1e-4, 6);
+  for (std::size_t k = 0; k < s.t.size(); ++k) s.residual[k] += 1e-3 * std::sin(3.0 * kTwoPi * 2.0 * s.t[k]);
+  const HarmonicParts h = harmonic_parts(s, 2.0, 10);
+  ASSERT_TRUE(h.ok);
+  EXPECT_EQ(h.strongest, 3);
+  EXPECT_NEAR(h.harmonics, 1e-3 / std::sqrt(2.0), 0.03e-3);
+  EXPECT_NEAR(h.fundamental, 0.0, 0.02e-3);
+  EXPECT_NEAR(h.rest, 1e-4, 0.05e-4);
+  EXPECT_NEAR(static_cast<double>(h.first), 3499.0, 1.0);  // the last 2.5 s: five whole cycles
+  const std::vector<ResidualSeries> runs = {s, run("sine", 5.0, 1e-4, 7)};
+  const VerdictReport v = judge_residual(runs, estimate_noise_floor(runs));
+  EXPECT_EQ(v.verdict, ResidualVerdict::kStructureRemains);
+  ASSERT_EQ(v.unexplained.size(), 1u);
+  EXPECT_NE(v.unexplained[0].where.find("sine.csv (2 Hz, steady state)"), std::string::npos);
+  EXPECT_NE(v.unexplained[0].where.find("(strongest 3)"), std::string::npos) << v.unexplained[0].where;
+  EXPECT_NEAR(v.unexplained[0].ratio, 7.07, 0.5);
+  EXPECT_STREQ(verdict_name(v.verdict), "structure_remains");
+}
+
+TEST(Verdict, APulseIsLocatedInTime) {
+  // A pulse of 2e-3 from t = 3.0 to 3.3 s on a square run (away from the jumps at 0, 2, 4 s
+  // and their transients), as an external force pulse leaves it.
+  ResidualSeries s = run("square", 0.0, 1e-4, 8);
+  s.kind = "other";
+  for (std::size_t k = 0; k < s.t.size(); ++k) {
+    if (s.t[k] >= 3.0 && s.t[k] < 3.3) s.residual[k] += 2e-3;
+  }
+  const std::vector<ResidualSeries> runs = {s};
+  const VerdictReport v = judge_residual(runs, estimate_noise_floor(runs));
+  EXPECT_EQ(v.verdict, ResidualVerdict::kStructureRemains);
+  bool found = false;
+  for (const UnexplainedPart& u : v.unexplained) {
+    if (u.where.find("t = 3.00–3.40 s") != std::string::npos ||
+        u.where.find("t = 3.00–3.20 s") != std::string::npos) {
+      found = true;
+      EXPECT_GT(u.ratio, 10.0);
+    }
+  }
+  EXPECT_TRUE(found) << v.text();
+}
+
+TEST(Verdict, TransientsAfterJumpsAreReportedNotJudged) {
+  // An error decaying within 1 s after each jump of the square reference (the α-model's low-α
+  // end): not judged, its RMS reported.
+  ResidualSeries s = run("square", 0.0, 1e-4, 9);
+  for (std::size_t k = 0; k < s.t.size(); ++k) {
+    const double since = std::fmod(s.t[k], 2.0);
+    s.residual[k] += since < 0.9 ? 5e-3 * std::exp(-since / 0.1) : 0.0;
+  }
+  const std::vector<ResidualSeries> runs = {s};
+  const VerdictReport v = judge_residual(runs, estimate_noise_floor(runs));
+  EXPECT_EQ(v.verdict, ResidualVerdict::kExplained) << v.text();
+  EXPECT_GT(v.transient_rms, 10.0 * v.judged_rms);
+}
+
+TEST(Verdict, NoFloorIsNotAVerdictOfExplained) {
+  const VerdictReport v = judge_residual({}, NoiseFloor{});
+  EXPECT_EQ(v.verdict, ResidualVerdict::kStructureRemains);
+  ASSERT_EQ(v.unexplained.size(), 1u);
+  EXPECT_EQ(v.unexplained[0].where, "no noise floor could be estimated from the data");
+}
+
+}  // namespace
+}  // namespace alphainv
