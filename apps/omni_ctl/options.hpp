@@ -6,6 +6,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "alphainv/device/control_loop.hpp"
 #include "alphainv/device/loop_runner.hpp"
@@ -38,6 +39,10 @@ struct Options {
   std::string socket_path;
   double stream_hz = 0.0;  // client: print state lines at this rate
   std::string command_line;
+  // Model-based compensation and the virtual plant's physics (docs/compensation.md).
+  std::string compensate;                // --compensate effects|feedforward|all ("": none)
+  std::vector<std::string> sim_effects;  // --sim-effect NAME:PARAM=VALUE[,...] (repeatable)
+  std::string sim_push;                  // --sim-push ramp:RATE[,start=S][,max=V] | constant:V
 };
 
 /// The name of a waveform in the daemon protocol and the messages: "sine", "square", "step",
