@@ -1,8 +1,11 @@
-// Cost of omni_ctl's tick: rt::ControlLoop::tick alone, and with the virtual device's read and
-// write (which include one RK4 plant step). Run:
+// Cost of omni_ctl's tick: rt::ControlLoop::tick alone (/0: the paper's model; /1: a model with
+// Coulomb friction, offset, cogging and a deadzone; /2: the same with --compensate all), and with the
+// virtual device's read and write (which include one RK4 plant step). Run:
 //   ./build/release/bench/bench_control_loop --benchmark_repetitions=5
 //   --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>
+
+#include <cstdint>
 
 #include "alphainv/device/sim_transport.hpp"
 #include "alphainv/device/control_loop.hpp"
@@ -10,8 +13,22 @@
 
 using namespace alphainv;
 
+/// The loop's configuration: 0 the paper's model; 1 with the effects of docs/compensation.md's
+/// plant in the model (the prediction evaluates them); 2 the same with --compensate all.
+rt::ControlLoopConfig bench_config(std::int64_t variant) {
+  rt::ControlLoopConfig c;
+  if (variant >= 1) {
+    c.effects.coulomb_v = 0.02;
+    c.effects.offset_v = -0.01;
+    c.effects.cogging_v = 0.01;
+    c.effects.deadzone_v = 0.01;
+  }
+  if (variant == 2) c.compensation.mode = rt::CompensationMode::kAll;
+  return c;
+}
+
 static void BM_ControlLoopTick(benchmark::State& state) {
-  rt::ControlLoop loop{rt::ControlLoopConfig{}};
+  rt::ControlLoop loop{bench_config(state.range(0))};
   device::ReadResult in;
   in.status = device::IoStatus::kOk;
   in.reports_read = 1;
@@ -26,7 +43,7 @@ static void BM_ControlLoopTick(benchmark::State& state) {
     benchmark::DoNotOptimize(loop.tick(t, in, false, out));
   }
 }
-BENCHMARK(BM_ControlLoopTick);
+BENCHMARK(BM_ControlLoopTick)->ArgName("effects_compensated")->Arg(0)->Arg(1)->Arg(2);
 
 static void BM_TickWithSimDeviceAndRing(benchmark::State& state) {
   rt::ControlLoop loop{rt::ControlLoopConfig{}};

@@ -15,6 +15,7 @@
 #include "alphainv/device/emergency_stop.hpp"
 #include "alphainv/device/loop_runner.hpp"
 #include "alphainv/error.hpp"
+#include "alphainv/model/effects.hpp"
 #include "apps/common/units.hpp"
 #include "options.hpp"
 #include "protocol.hpp"
@@ -174,6 +175,18 @@ int main(int argc, char** argv) {
   app.add_option("--sim-fault", opt.sim_fault,
                  "inject a fault into --device sim: KIND@SECONDS, KIND = disconnect, stall, "
                  "corrupt, sequence, encoder-jump, slow");
+  // Compensation and the virtual plant (docs/compensation.md).
+  app.add_option("--compensate", opt.compensate,
+                 "add the model's compensation to the P law: effects (cancel its torque effects, "
+                 "invert its deadzone), feedforward (invert the alpha-model along the reference), "
+                 "all")
+      ->check(CLI::IsMember({"none", "effects", "feedforward", "all"}));
+  app.add_option("--sim-effect", opt.sim_effects,
+                 "an effect of --device sim's plant, NAME:PARAM=VALUE[,PARAM=VALUE] (repeatable), "
+                 "e.g. coulomb_friction:coulomb_v=0.02; names: " + effect_names_text());
+  app.add_option("--sim-push", opt.sim_push,
+                 "an external torque on --device sim's joint: ramp:RATE[,start=S][,max=V] or "
+                 "constant:V [V/s, V, s]");
   app.add_option("--rt-priority", opt.rt_priority, "SCHED_FIFO priority, 0 = normal scheduler")
       ->capture_default_str()
       ->check(CLI::Range(0, 99));

@@ -43,6 +43,10 @@ struct Options {
   /// The loop options given on the command line (--max-command, --sim-fault, …): a client
   /// refuses to run on a daemon that cannot honour them.
   std::vector<std::string> loop_options_given;
+  // Model-based compensation and the virtual plant's physics (docs/compensation.md).
+  std::string compensate;                // --compensate effects|feedforward|all ("": none)
+  std::vector<std::string> sim_effects;  // --sim-effect NAME:PARAM=VALUE[,...] (repeatable)
+  std::string sim_push;                  // --sim-push ramp:RATE[,start=S][,max=V] | constant:V
 };
 
 /// What the loop runs with, built the same way by the single-run mode and the daemon.

@@ -52,20 +52,41 @@ rt::ControlLoopConfig make_loop_config(const Options& opt, std::string& model_so
                   opt.model_path, 0, "alpha");
     }
   }
+  if (!opt.compensate.empty()) {
+    cfg.compensation.mode = rt::compensation_mode_from_name(opt.compensate, "--compensate");
+    if (rt::cancels_effects(cfg.compensation.mode) && active_effects(cfg.effects).empty()) {
+      model_note += "--compensate " + opt.compensate + ": the model has no effects to cancel. ";
+    }
+  }
   cfg.validate();
   return cfg;
+}
+
+/// The virtual Omni of `opt`: the paper's plant with the --sim-effect effects.
+VirtualOmniParams sim_plant(const Options& opt) {
+  VirtualOmniParams p;
+  for (const std::string& spec : opt.sim_effects) {
+    apply_effect_spec(spec, p.effects, "--sim-effect " + spec);
+  }
+  p.validate();  // names the field, e.g. a Coulomb level too stiff for the RK4 step
+  return p;
 }
 
 std::unique_ptr<device::Transport> make_transport(const Options& opt) {
   if (opt.device == "sim") {
     device::SimFault fault;
     if (!opt.sim_fault.empty()) fault = device::parse_sim_fault(opt.sim_fault, "--sim-fault");
-    return std::make_unique<device::SimTransport>(VirtualOmniParams{}, device::ReportScaling{},
-                                                  fault);
+    auto sim = std::make_unique<device::SimTransport>(sim_plant(opt), device::ReportScaling{},
+                                                      fault);
+    if (!opt.sim_push.empty()) sim->device().set_push(device::parse_sim_push(opt.sim_push));
+    return sim;
   }
-  if (!opt.sim_fault.empty()) {
-    throw Error("--sim-fault needs --device sim", {}, 0, "--sim-fault");
-  }
+  const auto sim_only = [](bool given, const char* option) {
+    if (given) throw Error(std::string(option) + " needs --device sim", {}, 0, option);
+  };
+  sim_only(!opt.sim_fault.empty(), "--sim-fault");
+  sim_only(!opt.sim_effects.empty(), "--sim-effect");
+  sim_only(!opt.sim_push.empty(), "--sim-push");
   if (opt.device.rfind("hid", 0) == 0) {
     return std::make_unique<device::HidTransport>(
         device::HidDeviceSpec::parse(opt.device.substr(3), "--device"));

@@ -61,8 +61,17 @@ double Waveform::at(double t_s) const noexcept {
   return offset_rad;
 }
 
+void Waveform::rates(double t_s, double& r_dot, double& r_ddot) const noexcept {
+  r_dot = r_ddot = 0.0;
+  if (kind != WaveKind::kSine) return;
+  const double w = 2.0 * kPi * freq_hz;
+  r_dot = amplitude_rad * w * std::cos(w * t_s);
+  r_ddot = -amplitude_rad * w * w * std::sin(w * t_s);
+}
+
 void ControlLoopConfig::validate() const {
   validate_effects(effects, "effects.");
+  compensation.validate(period_s);
   require(std::isfinite(period_s) && period_s >= 1e-5 && period_s <= 0.1, "period_s",
           "10 us <= period <= 100 ms", period_s);
   require(std::isfinite(kp_max) && kp_max > 0.0, "kp_max", "a positive number", kp_max);
@@ -93,7 +102,10 @@ void ControlLoopConfig::validate() const {
 }
 
 ControlLoop::ControlLoop(const ControlLoopConfig& config)
-    : config_((config.validate(), config)), estimator_(estimator_for(config)), kp_(config.kp) {
+    : config_((config.validate(), config)),
+      estimator_(estimator_for(config)),
+      compensator_(config.compensation, config.effects, config.period_s),
+      kp_(config.kp) {
   estimator_.reset(0.0);
   const double ticks = std::round(config_.effects.delay_s / config_.period_s);
   delay_ticks_ = static_cast<std::size_t>(std::min(ticks, static_cast<double>(kMaxDelayTicks)));
@@ -187,6 +199,7 @@ TickRecord ControlLoop::tick(double t_s, const device::ReadResult& input, bool d
 
   if (fault_ != Fault::kNone || !have_report_) {
     out_report = safe_report();
+    compensator_.reset();
     v_prev_ = 0.0;
     u_prev_ = 0.0;
     have_prev_tick_ = false;
@@ -195,9 +208,28 @@ TickRecord ControlLoop::tick(double t_s, const device::ReadResult& input, bool d
     return rec;
   }
 
-  // P law, eq. (10) with ki = kd = 0, then the clamp and the slew limit.
+  // P law, eq. (10) with ki = kd = 0, plus the compensation (compensator.hpp), then the clamp
+  // and the slew limit.
+  const double inertia = config_.inertia.inertia(gamma1_, gamma2_);
+  compensator_.observe(theta_, new_report);
+  const double v_p = kp_ * (rec.r_rad - theta_);
+  double v = v_p;
+  const CompensationMode mode = config_.compensation.mode;
+  if (mode != CompensationMode::kNone) {
+    double v_ff = 0.0, r_dot = 0.0, r_ddot = 0.0;
+    if (feeds_forward(mode)) {  // r̈ + C(α̂, I)·ṙ = β̃(α̂, I)·v_ff at the tick's middle plus τ
+      wave_.rates(t_s - wave_start_s_ + compensator_.lead_s(), r_dot, r_ddot);
+      if (!(c_last_ > 0.0)) {  // the first tick: C, β̃ at the estimator's α̂ and this pose
+        c_last_ = config_.model.damping(alpha_prev_, inertia);
+        beta_last_ = config_.model.beta_tilde(alpha_prev_, inertia);
+      }
+      v_ff = feedforward_command(r_dot, r_ddot, c_last_, beta_last_);
+    }
+    v = compensator_.command(v_p, v_ff, r_dot);
+  }
+  rec.p_command_v = std::isfinite(v_p) ? v_p : 0.0;
+  rec.comp_command_v = std::isfinite(v) ? v - rec.p_command_v : 0.0;
   const SafetyLimits& s = config_.safety;
-  double v = kp_ * (rec.r_rad - theta_);
   if (!std::isfinite(v)) v = 0.0;
   v = std::fmin(std::fmax(v, -s.max_command_v), s.max_command_v);
   const double max_step = s.max_slew_v_per_s * config_.period_s;
@@ -215,9 +247,11 @@ TickRecord ControlLoop::tick(double t_s, const device::ReadResult& input, bool d
 
   // α̂ of the command history (eq. (33)), I (eq. (6)), C and β̃ (eqs. (38)-(42)).
   const double alpha = estimator_.update(v_model).alpha;
-  const double inertia = config_.inertia.inertia(gamma1_, gamma2_);
+  alpha_prev_ = alpha;
   const double c = config_.model.damping(alpha, inertia);
   const double beta = config_.model.beta_tilde(alpha, inertia);
+  c_last_ = c;
+  beta_last_ = beta;
 
   // One-step prediction from eq. (37), θ̈ + C θ̇ = β̃ v, exact over a tick with C, β̃, v held:
   //   θ(T) = θ0 + θ̇0·a + (β̃v/C)(T − a),  θ̇(T) = θ̇0·e + (β̃v/C)(1 − e),  e = exp(−CT),

@@ -47,7 +47,7 @@ RunData RunRecorder::run_data() const {
   RunData data;
   const std::size_t n = rows_.size();
   const char* extra_names[] = {"gamma1",     "gamma2",     "alpha",        "C",
-                               "beta_tilde", "theta_pred", "torque_enable"};
+                               "beta_tilde", "theta_pred", "torque_enable", "v_p", "v_comp"};
   for (const char* name : extra_names) data.extra_columns[name].reserve(n);
   data.t.reserve(n);
   const double t0 = run_start_s_;  // t = 0 where the waveform starts
@@ -63,6 +63,8 @@ RunData RunRecorder::run_data() const {
     data.extra_columns["beta_tilde"].push_back(r.beta_tilde);
     data.extra_columns["theta_pred"].push_back(r.theta_pred_rad);
     data.extra_columns["torque_enable"].push_back(r.enable ? 1.0 : 0.0);
+    data.extra_columns["v_p"].push_back(r.p_command_v);
+    data.extra_columns["v_comp"].push_back(r.comp_command_v);
   }
   return data;
 }
@@ -107,13 +109,17 @@ Dataset RunRecorder::dataset(const RunResult& result, const rt::ControlLoopConfi
       {"rows", result.rows},
       {"dropped_rows", result.dropped_rows},
       {"max_slew_v_per_s", config.safety.max_slew_v_per_s},
+      {"compensation", rt::to_string(config.compensation.mode)},
       {"columns",
        {{"theta_pred",
          "the model's prediction of this row's theta made one tick earlier "
          "(eq. (37) held over a tick); equal to theta when none was possible"},
         {"alpha", "streaming alpha-hat of the command history, eq. (33) [V^2/s^2]"},
         {"C", "C(alpha, I) [1/s], eqs. (38)-(40)"},
-        {"beta_tilde", "beta~(alpha, I) [rad/s^2/V], eqs. (41)-(42)"}}},
+        {"beta_tilde", "beta~(alpha, I) [rad/s^2/V], eqs. (41)-(42)"},
+        {"v_p", "the P law kp (r - theta) [V]"},
+        {"v_comp", "the model-based compensation added to v_p before the clamp [V] "
+                   "(omni_ctl --compensate; 0 without)"}}},
       {"timing", timing_json<nlohmann::json>(result.timing)}};
   ds.extra_json = extra.dump();
   return ds;

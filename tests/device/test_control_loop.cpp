@@ -275,26 +275,36 @@ TEST(ControlLoop, AngleLimitAndDeadlineMisses) {
 }
 
 TEST(ControlLoop, TickAllocatesNothing) {
-  ControlLoop loop{ControlLoopConfig{}};
-  SimTransport t(VirtualOmniParams{}, ReportScaling{});
-  SpscRing<TickRecord> ring(4096);
-  auto hist = std::make_unique<LatencyHistogram>();
-  TickRecord sink;
-  const long before = alphainv::test::allocation_count();
-  for (int k = 0; k < 3000; ++k) {
-    const ReadResult in = t.read_latest();
-    OutputReport out;
-    const TickRecord rec = loop.tick(k * 1e-3, in, false, out);
-    if (t.write(out) != IoStatus::kOk) loop.latch(Fault::kDisconnected);
-    if (!ring.push(rec)) (void)ring.pop(sink);
-    hist->add(rec.read_s);
-    if (k == 0) loop.set_reference(sine(0.07, 3.0), 1e-3, true);
-    if (k == 1500) {
-      (void)loop.set_kp(2.5);
-      loop.hold();
+  // Without compensation, and with --compensate all on a model with effects (compensator.hpp).
+  ControlLoopConfig compensated;
+  compensated.effects.coulomb_v = 0.02;
+  compensated.effects.offset_v = 0.01;
+  compensated.effects.cogging_v = 0.01;
+  compensated.effects.deadzone_v = 0.01;
+  compensated.compensation.mode = CompensationMode::kAll;
+  for (const ControlLoopConfig& config : {ControlLoopConfig{}, compensated}) {
+    SCOPED_TRACE(to_string(config.compensation.mode));
+    ControlLoop loop{config};
+    SimTransport t(VirtualOmniParams{}, ReportScaling{});
+    SpscRing<TickRecord> ring(4096);
+    auto hist = std::make_unique<LatencyHistogram>();
+    TickRecord sink;
+    const long before = alphainv::test::allocation_count();
+    for (int k = 0; k < 3000; ++k) {
+      const ReadResult in = t.read_latest();
+      OutputReport out;
+      const TickRecord rec = loop.tick(k * 1e-3, in, false, out);
+      if (t.write(out) != IoStatus::kOk) loop.latch(Fault::kDisconnected);
+      if (!ring.push(rec)) (void)ring.pop(sink);
+      hist->add(rec.read_s);
+      if (k == 0) loop.set_reference(sine(0.07, 3.0), 1e-3, true);
+      if (k == 1500) {
+        (void)loop.set_kp(2.5);
+        loop.hold();
+      }
     }
+    (void)loop.safe_report();
+    EXPECT_EQ(alphainv::test::allocation_count() - before, 0);
+    EXPECT_EQ(loop.fault(), Fault::kNone);
   }
-  (void)loop.safe_report();
-  EXPECT_EQ(alphainv::test::allocation_count() - before, 0);
-  EXPECT_EQ(loop.fault(), Fault::kNone);
 }

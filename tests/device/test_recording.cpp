@@ -35,6 +35,8 @@ rt::TickRecord tick(int k) {
   r.damping = 10.0 + k;
   r.beta_tilde = 250.0 - k;
   r.theta_pred_rad = 0.008 * k + 1e-5;
+  r.p_command_v = 0.005 * k - 0.01;
+  r.comp_command_v = -0.001 * k;
   r.enable = k != 4;
   r.wake_latency_s = (10.0 * k + 10.5) * 1e-6;  // 10.5 … 50.5 µs, mid-bin
   r.period_jitter_s = (2.0 * k + 2.5) * 1e-6;   // the first tick's is not counted
@@ -71,10 +73,10 @@ TEST(RunRecorder, WritesTheRowsColumnsAndValuesOfTheTicks) {
   const RunData run = read_run(ds, 0);
   ASSERT_EQ(run.size(), 5u);
   for (const char* col : {"gamma1", "gamma2", "alpha", "C", "beta_tilde", "theta_pred",
-                          "torque_enable"}) {
+                          "torque_enable", "v_p", "v_comp"}) {
     ASSERT_NE(run.column(col), nullptr) << col;
   }
-  EXPECT_EQ(run.extra_columns.size(), 7u);
+  EXPECT_EQ(run.extra_columns.size(), 9u);
   for (int k = 0; k < 5; ++k) {
     const std::size_t i = static_cast<std::size_t>(k);
     const rt::TickRecord r = tick(k);
@@ -91,6 +93,8 @@ TEST(RunRecorder, WritesTheRowsColumnsAndValuesOfTheTicks) {
     EXPECT_EQ((*run.column("beta_tilde"))[i], 250.0 - k);
     EXPECT_EQ((*run.column("theta_pred"))[i], r.theta_pred_rad);
     EXPECT_EQ((*run.column("torque_enable"))[i], k == 4 ? 0.0 : 1.0);
+    EXPECT_EQ((*run.column("v_p"))[i], r.p_command_v);
+    EXPECT_EQ((*run.column("v_comp"))[i], r.comp_command_v);
   }
   EXPECT_NEAR(run.t[4], 0.004, 1e-15);
 

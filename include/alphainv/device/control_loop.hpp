@@ -1,7 +1,8 @@
 #pragma once
 /// \file rt/control_loop.hpp
 /// The 1 kHz tick of omni_ctl, without timing or I/O: the safety supervisor, the P law (eq. (10))
-/// with its clamp and slew limit, the streaming α of the command history (eq. (33)), C(α, I) and
+/// with the model-based compensation added to it when asked for (compensator.hpp: the model's
+/// effects cancelled, the α-model fed forward along the reference), behind its clamp and slew limit, the streaming α of the command history (eq. (33)), C(α, I) and
 /// β̃(α, I) (eqs. (38)-(42)) with I(γ1, γ2) from the measured pose (eq. (6)), and the model's
 /// one-step prediction of θ (eq. (37) over one tick with the command held).
 ///
@@ -13,6 +14,7 @@
 #include <cstdint>
 
 #include "alphainv/model/damping_model.hpp"
+#include "alphainv/device/compensator.hpp"
 #include "alphainv/device/hid_report.hpp"
 #include "alphainv/device/transport.hpp"
 #include "alphainv/model/effects.hpp"
@@ -65,6 +67,9 @@ struct Waveform {
   /// r at t_s [s] since the run's start: hold → offset; sine → offset + A sin(2πft);
   /// square → offset ± A (+A for frac(ft) < 1/2); step → offset + A for t ≥ 0.
   double at(double t_s) const noexcept;
+  /// ṙ [rad/s] and r̈ [rad/s²] at t_s: sine Aω·cos(ωt), −Aω²·sin(ωt); the others 0 (their jumps
+  /// have no derivative the command could follow). Real-time safe.
+  void rates(double t_s, double& r_dot, double& r_ddot) const noexcept;
 };
 
 /// Constant parameters of the loop.
@@ -81,6 +86,8 @@ struct ControlLoopConfig {
   /// The delay is rounded to whole ticks, at most kMaxDelayTicks.
   Effects effects;
   device::ReportScaling scaling;                 ///< counts ↔ rad, V ↔ DAC counts
+  /// What is added to the P law (off by default): `effects` cancelled, the α-model fed forward.
+  CompensatorConfig compensation;
 
   /// Throws alphainv::Error naming the first bad field. Not real-time.
   void validate() const;
@@ -94,6 +101,8 @@ struct TickRecord {
   double gamma1_rad = 0.0;       ///< measured γ1 [rad]
   double gamma2_rad = 0.0;       ///< measured γ2 [rad]
   double command_v = 0.0;        ///< command sent, after clamp, slew limit and DAC rounding [V]
+  double p_command_v = 0.0;      ///< the P law's kp·(r − θ) [V]
+  double comp_command_v = 0.0;   ///< the compensation added to it, before the clamp [V]
   double alpha = 0.0;            ///< α̂ of the command history [V²/s²], eq. (33)
   double damping = 0.0;          ///< C(α̂, I) [1/s]
   double beta_tilde = 0.0;       ///< β̃(α̂, I) [rad/s² per V]
@@ -154,6 +163,10 @@ class ControlLoop {
 
   ControlLoopConfig config_;
   AlphaEstimator estimator_;
+  Compensator compensator_;
+  double alpha_prev_ = 0.0;  ///< the previous tick's α̂ (for the feedforward)
+  /// The previous tick's C(α̂, I) and β̃(α̂, I) (the feedforward's; 0 before the first tick).
+  double c_last_ = 0.0, beta_last_ = 0.0;
   double kp_;
   Waveform wave_;
   double wave_start_s_ = 0.0;

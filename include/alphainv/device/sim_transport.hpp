@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "alphainv/device/hid_report.hpp"
+#include "alphainv/device/sim_push.hpp"
 #include "alphainv/device/transport.hpp"
 #include "alphainv/simulate/virtual_omni.hpp"
 
@@ -75,6 +76,8 @@ class VirtualDevice {
   std::vector<WrittenCommand> written() const;
   /// Device tick at which the fault became active, or −1.
   long fault_tick() const noexcept { return fault_tick_; }
+  /// The external torque applied from now on (sim_push.hpp; none by default). Real-time safe.
+  void set_push(const SimPush& push) noexcept { push_ = push; }
 
   /// The device's own watchdog (docs/hid-reports.md): when no valid output report arrived for
   /// longer than watchdog_s of wall-clock time (CLOCK_MONOTONIC), the output stage applies 0 V
@@ -98,6 +101,7 @@ class VirtualDevice {
   VirtualOmni plant_;
   ReportScaling scaling_;
   SimFault fault_;
+  SimPush push_;
   long fault_tick_ = -1;
   std::uint16_t sequence_ = 0;
   static constexpr std::size_t kQueue = 256;

@@ -1,0 +1,138 @@
+#pragma once
+/// \file device/compensator.hpp
+/// Model-based compensation for the 1 kHz tick (omni_ctl --compensate): the identified model used
+/// to cancel what the P law would otherwise have to fight, in the plant of eq. (11)
+///     θ̈ + C(α, I)·θ̇ = β̃(α, I)·(S(Z(v(t − τ))) + n(θ, θ̇)).
+///
+/// - effects: the torque effects n of the model file (effects.hpp: Coulomb and every other friction
+///   form of the catalogue, offset, gravity, cogging) cancelled, and the amplifier deadzone Z
+///   inverted: v = Z⁻¹(v_p + v_ff − n̂). n̂ is effect_torque() evaluated generically (no effect is
+///   listed here) at the measured angle led by half a tick plus the model's delay,
+///   θ_L = θ + θ̇_f·(T/2 + τ), and at a velocity w, with its velocity-dependent part faded in
+///   through zero velocity (the model's torque effects are sorted once, in the constructor, by
+///   whether their term depends on θ̇, so the tick evaluates the others once):
+///       n̂ = n(θ_L, 0) + [n(θ_L, w) − n(θ_L, 0)]·s(|w|/ε_c),   s(x) = x/√(1 + x²),
+///   so the friction compensation is continuous and flat at w = 0 (no chatter on encoder steps, no
+///   limit cycle at rest) and complete for |w| ≫ ε_c. w is the filtered velocity θ̇_f, except in the
+///   mode `all` while the reference moves (a sine): there the joint follows the reference and w is
+///   ṙ at the tick's middle plus τ, which reverses when the motion does, not a few ticks later (a
+///   filtered velocity fades the compensation out at each reversal, and the joint sticks there
+///   until the P law alone overcomes the friction). The deadzone is inverted smoothly,
+///   Z⁻¹(x) = x + d·s(x/δ) (δ = deadzone_smoothing_v), exact to d·δ²/(2x²) for |x| ≫ δ.
+/// - feedforward: the α-model inverted along the reference, v_ff from
+///       r̈ + C(α̂, I)·ṙ = β̃(α̂, I)·v_ff          (eq. (37) with θ = r),
+///   with α̂ the streaming α of the command history (eq. (33)) and I(γ1, γ2) at the measured pose
+///   (eq. (6)); the reference's derivatives are taken at the tick's middle plus τ.
+///
+/// θ̇_f comes from a second-order tracking observer (an α-β filter with both poles at
+/// exp(−2π·velocity_bandwidth_hz·T)): zero steady-state error on a ramp in θ, and an encoder step q
+/// moves θ̇_f by only (1 − p)²·q/T.
+///
+/// Split like the loop: the constructor validates; observe(), command(), reset() are noexcept and
+/// real-time safe (no allocation, no locks, no I/O).
+
+#include <cstdint>
+#include <string>
+
+#include "alphainv/model/effects.hpp"
+
+namespace alphainv::rt {
+
+/// What --compensate adds to the P law.
+enum class CompensationMode : std::uint8_t {
+  kNone,         ///< the P law alone (the default)
+  kEffects,      ///< the model's torque effects cancelled, its deadzone inverted
+  kFeedforward,  ///< the α-model inverted along the reference
+  kAll,          ///< both
+};
+
+/// "none", "effects", "feedforward", "all". Real-time safe.
+const char* to_string(CompensationMode mode) noexcept;
+/// The mode `name` names (to_string's spelling); throws alphainv::Error naming `field` otherwise.
+CompensationMode compensation_mode_from_name(const std::string& name,
+                                             const std::string& field = "--compensate");
+/// True when `mode` cancels the effects (kEffects, kAll). Real-time safe.
+inline bool cancels_effects(CompensationMode mode) noexcept {
+  return mode == CompensationMode::kEffects || mode == CompensationMode::kAll;
+}
+/// True when `mode` adds the feedforward (kFeedforward, kAll). Real-time safe.
+inline bool feeds_forward(CompensationMode mode) noexcept {
+  return mode == CompensationMode::kFeedforward || mode == CompensationMode::kAll;
+}
+
+/// Settings of the compensator. validate() names a bad field.
+struct CompensatorConfig {
+  CompensationMode mode = CompensationMode::kNone;
+  /// Bandwidth of the velocity observer [Hz] (both poles at exp(−2π·f·T)); < 0.2/T.
+  double velocity_bandwidth_hz = 30.0;
+  /// ε_c [rad/s]: the velocity-dependent effects fade in as s(|w|/ε_c) (file comment).
+  double friction_smoothing_rad_s = 0.03;
+  /// δ [command unit]: width of the smooth deadzone inverse x + d·s(x/δ).
+  double deadzone_smoothing_v = 1e-3;
+  /// Evaluate position-dependent effects at θ + θ̇_f·(T/2 + τ) rather than at θ.
+  bool lead = true;
+
+  /// Throws alphainv::Error naming the field ("compensation.velocity_bandwidth_hz", …) for a
+  /// value out of range; `period_s` is the tick period T [s]. Not real-time.
+  void validate(double period_s) const;
+};
+
+/// v_ff [command unit] from r̈ + C·ṙ = β̃·v_ff: `r_dot` [rad/s], `r_ddot` [rad/s²], C [1/s],
+/// β̃ [rad/s² per command unit] (> 0). Real-time safe.
+inline double feedforward_command(double r_dot, double r_ddot, double damping,
+                                  double beta_tilde) noexcept {
+  return (r_ddot + damping * r_dot) / beta_tilde;
+}
+
+/// The compensator of one loop (see the file comment). Not thread-safe: the tick's thread only.
+class Compensator {
+ public:
+  /// Validates `config` for tick period `period_s` [s] (throws alphainv::Error naming the field);
+  /// `model_effects` are the model file's effects (validated by the caller).
+  Compensator(const CompensatorConfig& config, const Effects& model_effects, double period_s);
+
+  /// Feeds the tick's measured θ [rad] to the velocity observer (`new_report`: a new measurement
+  /// arrived; otherwise the observer only predicts). Real-time safe.
+  void observe(double theta_rad, bool new_report) noexcept;
+  /// Forgets the observer's state (e.g. after the measurements stopped). Real-time safe.
+  void reset() noexcept;
+
+  /// n̂ [command unit]: the model's torque effects at the observer's angle (led) and the velocity
+  /// `velocity_rad_s`, smoothed through zero velocity (file comment); 0 before the first
+  /// measurement. Real-time safe.
+  double effect_torque_estimate(double velocity_rad_s) const noexcept;
+  /// The same at the filtered velocity θ̇_f. Real-time safe.
+  double effect_torque_estimate() const noexcept { return effect_torque_estimate(velocity_); }
+  /// Z⁻¹ smoothed: the command [command unit] whose deadzone output is `desired_v`. Real-time safe.
+  double invert_deadzone(double desired_v) const noexcept;
+  /// The command before the clamp [command unit] for the P law's `p_command_v` and the feedforward
+  /// `feedforward_v` (used only in the modes that feed forward): in the modes that cancel effects
+  /// Z⁻¹(v_p + v_ff − n̂), otherwise v_p + v_ff. `reference_rate_rad_s`: ṙ at the tick's middle
+  /// plus τ when the reference moves (n̂'s velocity in the mode `all`, file comment), else 0.
+  /// Real-time safe.
+  double command(double p_command_v, double feedforward_v,
+                 double reference_rate_rad_s = 0.0) const noexcept;
+
+  /// Filtered velocity θ̇_f [rad/s]. Real-time safe.
+  double velocity_rad_s() const noexcept { return velocity_; }
+  /// Time by which position-dependent effects and the reference are led [s]: T/2 + τ.
+  double lead_s() const noexcept { return lead_s_; }
+  const CompensatorConfig& config() const noexcept { return config_; }
+
+ private:
+  CompensatorConfig config_;
+  Effects effects_;
+  /// The model's torque effects split by the catalogue (probed once, in the constructor): those
+  /// whose torque does not depend on θ̇ (evaluated once per tick) and those that do.
+  Effects still_effects_, moving_effects_;
+  bool any_moving_ = false;
+  double period_s_;
+  double lead_s_;
+  double gain_position_ = 0.0, gain_velocity_ = 0.0;  ///< α-β gains a, b/T
+  bool have_state_ = false;
+  double theta_meas_ = 0.0;  ///< newest measured θ [rad]
+  double theta_hat_ = 0.0;   ///< observer's θ [rad]
+  double velocity_ = 0.0;    ///< observer's θ̇ [rad/s]
+};
+
+}  // namespace alphainv::rt

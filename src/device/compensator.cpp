@@ -1,0 +1,134 @@
+#include "alphainv/device/compensator.hpp"
+
+#include <cmath>
+
+#include "alphainv/error.hpp"
+#include "alphainv/model/detail/field_checks.hpp"
+
+namespace alphainv::rt {
+
+namespace {
+
+/// Whether the torque of `e` depends on the velocity (probed at a few states).
+bool depends_on_velocity(const Effects& e) noexcept {
+  for (double theta : {-0.3, 0.0, 0.37}) {
+    const double at_rest = effect_torque(e, theta, 0.0);
+    for (double w : {-1.0, -1e-3, 1e-2, 2.0}) {
+      if (effect_torque(e, theta, w) != at_rest) return true;
+    }
+  }
+  return false;
+}
+
+/// The smooth sign x/√(1 + x²) [−1, 1]: odd, slope 1 at 0; cheaper than tanh in the tick.
+inline double smooth_sign(double x) noexcept { return x / std::sqrt(1.0 + x * x); }
+
+}  // namespace
+
+const char* to_string(CompensationMode mode) noexcept {
+  switch (mode) {
+    case CompensationMode::kNone:
+      return "none";
+    case CompensationMode::kEffects:
+      return "effects";
+    case CompensationMode::kFeedforward:
+      return "feedforward";
+    case CompensationMode::kAll:
+      return "all";
+  }
+  return "none";
+}
+
+CompensationMode compensation_mode_from_name(const std::string& name, const std::string& field) {
+  for (CompensationMode m : {CompensationMode::kNone, CompensationMode::kEffects,
+                             CompensationMode::kFeedforward, CompensationMode::kAll}) {
+    if (name == to_string(m)) return m;
+  }
+  throw Error("expected effects, feedforward, all or none, got '" + name + "'", {}, 0, field);
+}
+
+void CompensatorConfig::validate(double period_s) const {
+  const double f = velocity_bandwidth_hz;
+  if (!(std::isfinite(f) && f > 0.0 && f < 0.2 / period_s)) {
+    detail::bad("compensation.velocity_bandwidth_hz",
+                "0 < bandwidth < " + detail::num(0.2 / period_s) + " Hz (0.2/T)", f);
+  }
+  detail::require_positive("compensation.friction_smoothing_rad_s", friction_smoothing_rad_s);
+  detail::require_positive("compensation.deadzone_smoothing_v", deadzone_smoothing_v);
+}
+
+Compensator::Compensator(const CompensatorConfig& config, const Effects& model_effects,
+                         double period_s)
+    : config_((config.validate(period_s), config)),
+      effects_(model_effects),
+      period_s_(period_s),
+      lead_s_(config.lead ? 0.5 * period_s + model_effects.delay_s : 0.0) {
+  // α-β observer with both error poles at p: a = 1 − p², b = (1 − p)² (characteristic
+  // polynomial z² − (2 − a − b)z + (1 − a) = (z − p)²).
+  const double p = std::exp(-2.0 * 3.14159265358979323846 * config.velocity_bandwidth_hz * period_s);
+  gain_position_ = 1.0 - p * p;
+  gain_velocity_ = (1.0 - p) * (1.0 - p) / period_s;
+  // Sort the torque effects generically, through the catalogue: each active one alone, probed.
+  for (const EffectSpec& spec : kEffectCatalogue) {
+    if (spec.role != EffectRole::kTorque || !spec.active(model_effects)) continue;
+    Effects alone;
+    for (const EffectParameter& q : spec) alone.*(q.member) = model_effects.*(q.member);
+    const bool moving = depends_on_velocity(alone);
+    Effects& group = moving ? moving_effects_ : still_effects_;
+    for (const EffectParameter& q : spec) group.*(q.member) = model_effects.*(q.member);
+    any_moving_ = any_moving_ || moving;
+  }
+}
+
+void Compensator::reset() noexcept {
+  have_state_ = false;
+  theta_hat_ = theta_meas_ = velocity_ = 0.0;
+}
+
+void Compensator::observe(double theta_rad, bool new_report) noexcept {
+  if (!have_state_) {
+    if (!new_report) return;
+    have_state_ = true;
+    theta_hat_ = theta_meas_ = theta_rad;
+    velocity_ = 0.0;
+    return;
+  }
+  const double predicted = theta_hat_ + period_s_ * velocity_;
+  if (!new_report) {
+    theta_hat_ = predicted;
+    return;
+  }
+  theta_meas_ = theta_rad;
+  const double residual = theta_rad - predicted;
+  theta_hat_ = predicted + gain_position_ * residual;
+  velocity_ += gain_velocity_ * residual;
+}
+
+double Compensator::effect_torque_estimate(double w) const noexcept {
+  if (!have_state_) return 0.0;
+  const double theta_lead = theta_meas_ + velocity_ * lead_s_;
+  // The effects that do not depend on θ̇, plus those that do, faded in through zero velocity.
+  const double still = effect_torque(still_effects_, theta_lead, 0.0);
+  if (!any_moving_) return still;
+  const double at_rest = effect_torque(moving_effects_, theta_lead, 0.0);
+  const double moving = effect_torque(moving_effects_, theta_lead, w);
+  return still +
+         at_rest + (moving - at_rest) * smooth_sign(std::abs(w) / config_.friction_smoothing_rad_s);
+}
+
+double Compensator::invert_deadzone(double desired_v) const noexcept {
+  const double d = effects_.deadzone_v;
+  if (!(d > 0.0)) return desired_v;
+  return desired_v + d * smooth_sign(desired_v / config_.deadzone_smoothing_v);
+}
+
+double Compensator::command(double p_command_v, double feedforward_v,
+                            double reference_rate_rad_s) const noexcept {
+  const bool ff = feeds_forward(config_.mode);
+  const double v = p_command_v + (ff ? feedforward_v : 0.0);
+  if (!cancels_effects(config_.mode)) return v;
+  const double w = ff && reference_rate_rad_s != 0.0 ? reference_rate_rad_s : velocity_;
+  return invert_deadzone(v - effect_torque_estimate(w));
+}
+
+}  // namespace alphainv::rt
