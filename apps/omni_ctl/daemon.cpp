@@ -338,6 +338,10 @@ class Server {
       }
       o.record_dir = msg["record"].get<std::string>();
     }
+    if (msg.contains("force") && !msg["force"].is_boolean()) {
+      throw Error("expected true or false", {}, 0, "force");
+    }
+    o.force_record = msg.value("force", false);
     if (!owner_.empty() || runner_.running_waveform()) {
       throw Error("a run is in progress; send stop first", {}, 0, "cmd");
     }
@@ -564,6 +568,7 @@ ExitCode run_client(int fd, const Options& opt, const std::atomic<bool>& stop) {
               {"command_line", opt.command_line}};
   if (is_periodic(*opt.wave)) run["freq_hz"] = opt.freq_hz;
   if (!opt.record_dir.empty()) run["record"] = fs::absolute(opt.record_dir).string();
+  if (opt.force_record) run["force"] = true;
   if (!send_json(run) || !expect_ok("the run")) {
     close(fd);
     return ExitCode::kBadInput;

@@ -128,6 +128,7 @@ device::RunRecording make_recording(const Options& opt, const device::LoopComman
   rec.command_line = opt.command_line;
   rec.device = setup.transport->describe();
   rec.model_source = setup.model_source;
+  rec.force = opt.force_record;
   return rec;
 }
 

@@ -556,6 +556,27 @@ void validate_run_data(const RunData& data, const std::string& file) {
   }
 }
 
+/// Throws unless run `data` can be a measurement (read_run()'s checks).
+void check_run_sense(const RunData& data, const std::string& file) {
+  bool any_nonzero = false;
+  for (const char* name : {"r", "theta", "v"}) {
+    const std::vector<double>& col = *data.column(name);
+    for (std::size_t k = 0; k < col.size(); ++k) {
+      if (std::abs(col[k]) > kMaxPhysicalMagnitude) {
+        throw Error("expected |" + std::string(name) + "| <= " +
+                        common::shortest(kMaxPhysicalMagnitude) + " (a physical value), found " +
+                        common::shortest(col[k]),
+                    file, static_cast<long>(k + 2), name);
+      }
+      any_nonzero = any_nonzero || col[k] != 0.0;
+    }
+  }
+  if (!any_nonzero) {
+    throw Error("r, theta and v are zero in every row: the run carries no information", file, 0,
+                "v");
+  }
+}
+
 }  // namespace
 
 // --- RunData
@@ -568,6 +589,10 @@ const std::vector<double>* RunData::column(std::string_view name) const {
   if (name == "v") return &v;
   const auto it = extra_columns.find(std::string(name));
   return it == extra_columns.end() ? nullptr : &it->second;
+}
+
+bool is_format_column(std::string_view name) {
+  return contains(kRequiredColumns, name) || contains(kKnownOptionalColumns, name);
 }
 
 // --- reading
@@ -771,8 +796,19 @@ Dataset parse_dataset_index(std::string_view text, const fs::path& dir) {
     in.fail("expected a list of run objects, found " + describe_json(runs), "runs");
   if (runs.empty()) in.fail("expected at least one run, found an empty list", "runs");
   ds.runs.reserve(runs.size());
-  for (std::size_t i = 0; i < runs.size(); ++i)
+  std::map<fs::path, std::size_t> files;  // each run file once: a duplicate entry counts twice
+  for (std::size_t i = 0; i < runs.size(); ++i) {
     ds.runs.push_back(in.run(runs[i], i, ds.controller));
+    const auto [it, inserted] = files.emplace(fs::path(ds.runs[i].file).lexically_normal(), i);
+    if (!inserted) {
+      in.fail("duplicate run entry: " + quote(ds.runs[i].file) + " is already runs[" +
+                  std::to_string(it->second) + "]",
+              "runs[" + std::to_string(i) + "].file");
+    }
+  }
+  if (const json* ended = IndexReader::find(root, "ended"); ended != nullptr) {
+    ds.interrupted = ended->is_string() && ended->get_ref<const std::string&>() == "interrupted";
+  }
 
   root.erase("runs");
   ds.extra_json = root.dump();
@@ -803,7 +839,14 @@ RunData read_run(const Dataset& dataset, std::size_t i, const ReadLimits& limits
                     std::to_string(dataset.runs.size()) + " runs",
                 (dataset.dir / kIndexName).string(), 0, "runs");
   }
-  return read_run_csv(dataset.dir / dataset.runs[i].file, limits);
+  const fs::path csv = dataset.dir / dataset.runs[i].file;
+  std::string text = read_file(csv, limits.max_csv_bytes);
+  if (dataset.interrupted && !text.empty() && text.back() != '\n') {
+    text.resize(text.rfind('\n') + 1);  // the row its writer died writing (npos + 1 == 0)
+  }
+  RunData data = parse_run_csv(text, csv.string(), limits);
+  check_run_sense(data, csv.string());
+  return data;
 }
 
 // --- writing
