@@ -147,4 +147,36 @@ TEST_F(OmniFitOutputs, AModelFileMustBeARegularFileOfPhysicalValues) {
   }
 }
 
+// Finding 13: a run whose declared freq_hz (30) is not what the data hold (3 Hz) was used: a point
+// with C_data 3.2e12 was marked physical. Now the run is skipped with a note naming both.
+TEST_F(OmniFitOutputs, ADeclaredFrequencyTheDataDoNotHoldIsSkippedWithTheMeasuredOne) {
+  const fs::path ds = dir_ / "freq";
+  fs::create_directories(ds);
+  {
+    std::ofstream csv(ds / "run.csv");
+    csv << "t,r,theta,v\n";
+    for (int k = 0; k < 4000; ++k) {
+      const double t = 1e-3 * k, r = 0.05 * std::sin(2.0 * M_PI * 3.0 * t);
+      const double theta = 0.04 * std::sin(2.0 * M_PI * 3.0 * t - 0.5);
+      csv << t << "," << r << "," << theta << "," << 2.0 * (r - theta) << "\n";
+    }
+  }
+  auto index = [&](const char* freq) {
+    std::ofstream(ds / "dataset.json")
+        << R"({"format": "alphainv-dataset/1", "kp": 2, "runs": [{"file": "run.csv", "kind":
+           "sine", "freq_hz": )" << freq << R"(, "amplitude_rad": 0.05}]})";
+  };
+  index("30");
+  const ProcessResult wrong =
+      run_process({kFit, "fit", ds.string(), "-o", (dir_ / "f30").string(), "--no-plots"});
+  EXPECT_EQ(wrong.exit_code, 3) << wrong.err;
+  EXPECT_NE(wrong.out.find("run run.csv: declared freq_hz 30 is not the reference's frequency"),
+            std::string::npos) << wrong.out;
+  EXPECT_NE(wrong.out.find("r crosses its mean at about 3 Hz"), std::string::npos) << wrong.out;
+  index("3");  // the same data declared right: no such note
+  const ProcessResult right =
+      run_process({kFit, "fit", ds.string(), "-o", (dir_ / "f3").string(), "--no-plots"});
+  EXPECT_EQ(right.out.find("declared freq_hz"), std::string::npos) << right.out;
+}
+
 }  // namespace
