@@ -306,6 +306,7 @@ class Server {
     o.amplitude_rad = r.amplitude_rad;
     o.duration_s = r.duration_s;
     o.record_dir = r.record;
+    o.force_record = r.force;
     const std::uint32_t id = ++last_run_id_;
     const device::LoopCommand run = make_run_command(o, id);
     if (!o.record_dir.empty()) {
@@ -607,6 +608,7 @@ ExitCode run_client(int fd, const Options& opt, const std::atomic<bool>& stop) {
               {"command_line", opt.command_line}};
   if (is_periodic(*opt.wave)) run["freq_hz"] = opt.freq_hz;
   if (!opt.record_dir.empty()) run["record"] = fs::absolute(opt.record_dir).string();
+  if (opt.force_record) run["force"] = true;
   if (stop.load()) return leave(say_why(Read::kCancelled));
   run_sent = true;
   if (!send_json(run) || !expect_ok("the run", reply, code)) return leave(code);

@@ -90,7 +90,15 @@ ExitCode run_local(const Options& opt, const std::atomic<bool>& stop) {
   }
   const device::LoopCommand run = make_run_command(opt, 1);
   const bool recorded = !opt.record_dir.empty();
-  if (recorded) runner->add_recording(1, make_recording(opt, run, setup));
+  if (recorded) {
+    try {  // the folder is checked (new or --force, writable) before the motor moves
+      runner->add_recording(1, make_recording(opt, run, setup));
+    } catch (const Error& e) {
+      runner.reset();
+      transport.close();
+      return fail(ExitCode::kBadInput, std::string("--record: ") + e.what());
+    }
+  }
   (void)runner->post(run);
 
   const device::RealtimeSetup rt_setup = device::request_realtime(opt.rt_priority, !opt.no_mlock);
@@ -151,7 +159,9 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::Range(0.0, 10.0));
   app.add_option("--duration", duration, "run length, e.g. 10s or 500ms (default 10s)");
-  app.add_option("--record", opt.record_dir, "write the run as a dataset (alphainv-dataset/1)");
+  app.add_option("--record", opt.record_dir,
+                 "write the run as a dataset (alphainv-dataset/1) into this new or empty folder");
+  app.add_flag("--force", opt.force_record, "with --record: replace the dataset the folder holds");
   app.add_option("--model", opt.model_path, "model.json (omni_fit); default: the paper's model");
   app.add_option("--device", opt.device, "hid, hid:VID:PID (hex), hid:PATH or sim")
       ->capture_default_str();

@@ -29,6 +29,7 @@ struct Options {
   double kp = 2.0;              ///< P gain [V/rad]
   double duration_s = 10.0;     ///< run length [s]
   std::string record_dir;
+  bool force_record = false;  // --force: record into a folder that holds a dataset, replacing it
   std::string model_path;
   std::string device = "hid";
   std::string sim_fault;

@@ -111,6 +111,10 @@ Request parse_run(const json& msg, Request r) {
       throw Error("expected a path without NUL bytes", {}, 0, "record");
     }
   }
+  if (msg.contains("force")) {
+    if (!msg["force"].is_boolean()) throw Error("expected true or false", {}, 0, "force");
+    r.force = msg["force"].get<bool>();
+  }
   if (msg.contains("command_line")) {
     if (!msg["command_line"].is_string()) throw Error("expected a string", {}, 0, "command_line");
     r.command_line = sanitize_utf8(msg["command_line"].get_ref<const std::string&>());

@@ -78,6 +78,7 @@ struct Request {
   double amplitude_rad = 0.07;  ///< [rad]
   double duration_s = 10.0;     ///< [s]
   std::string record;           ///< absolute folder, or empty
+  bool force = false;           ///< record: replace the dataset the folder holds
   std::string command_line;     ///< sanitised; empty when the request had none
 };
 

@@ -124,6 +124,7 @@ device::RunRecording make_recording(const Options& opt, const device::LoopComman
   rec.command_line = protocol::sanitize_utf8(opt.command_line);
   rec.device = protocol::sanitize_utf8(setup.transport->describe());
   rec.model_source = protocol::sanitize_utf8(setup.model_source);
+  rec.force = opt.force_record;
   return rec;
 }
 

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
 
 #include <CLI/CLI.hpp>
@@ -17,6 +18,7 @@
 #include "alphainv/error.hpp"
 #include "alphainv/data/model_file.hpp"
 #include "alphainv/simulate/model_simulation.hpp"
+#include "common/output_folder.hpp"
 #include "fit_command.hpp"
 #include "plots.hpp"
 
@@ -163,6 +165,17 @@ int run_diagnose(const DiagnoseCommandOptions& o) {
     std::fprintf(stderr, "omni_fit diagnose: %s\n", e.what());
     return 2;
   }
+  // The output goes to a sibling folder swapped into place at the end (common/output_folder.hpp).
+  std::optional<common::OutputFolder> folder;
+  if (!o.out_dir.empty()) {
+    try {
+      folder.emplace(o.out_dir,
+                     std::initializer_list<const char*>{"model.json", "report.md", "plots"});
+    } catch (const Error& e) {
+      std::fprintf(stderr, "omni_fit diagnose: -o: %s\n", e.what());
+      return 2;
+    }
+  }
   DiagnoseOptions dopt;
   dopt.max_effects = o.max_effects;
   dopt.threads = o.threads;
@@ -203,10 +216,9 @@ int run_diagnose(const DiagnoseCommandOptions& o) {
     return 3;
   }
   const Effects effects_before = runs.empty() ? Effects{} : runs.front().model.effects;
-  if (!o.out_dir.empty()) {
-    const fs::path out(o.out_dir);
+  if (folder) {
+    const fs::path out = folder->path();  // swapped into place at the end
     try {
-      fs::create_directories(out);
       ModelFile m = model;
       apply_diagnosis(m, res);
       write_model_file(out / "model.json", m);
@@ -218,8 +230,9 @@ int run_diagnose(const DiagnoseCommandOptions& o) {
       if (!warning.empty() && !o.quiet) std::fprintf(stderr, "omni_fit diagnose: %s\n", warning.c_str());
       write_text_atomic(out / "report.md",
                         diagnose_report_markdown(res, runs, o.dataset_dir, model_source) + figs);
+      folder->commit();
     } catch (const std::exception& e) {
-      std::fprintf(stderr, "omni_fit diagnose: writing %s: %s\n", out.string().c_str(), e.what());
+      std::fprintf(stderr, "omni_fit diagnose: writing %s: %s\n", o.out_dir.c_str(), e.what());
       return 2;
     }
   }

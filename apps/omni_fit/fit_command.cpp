@@ -20,6 +20,7 @@
 #include "alphainv/identify/fit_report.hpp"
 #include "alphainv/identify/validation.hpp"
 #include "alphainv/data/model_file.hpp"
+#include "common/output_folder.hpp"
 #include "plots.hpp"
 #include "progress.hpp"
 #include "validate_command.hpp"
@@ -129,6 +130,17 @@ int run_fit(const FitCommandOptions& opt) {
     std::fprintf(stderr, "omni_fit fit: %s\n", e.what());
     return 2;
   }
+  // The output goes to a sibling folder, swapped into place at the end (common/output_folder.hpp):
+  // checked now, before the work, so `-o` naming a folder of other files costs no fit.
+  const fs::path out(opt.out_dir);
+  std::optional<common::OutputFolder> folder;
+  try {
+    folder.emplace(out, std::initializer_list<const char*>{"model.json", "report.md", "plots"});
+  } catch (const Error& e) {
+    progress.clear();
+    std::fprintf(stderr, "omni_fit fit: -o: %s\n", e.what());
+    return 2;
+  }
   if (progress.enabled()) popt.progress = show;
   EffectRefinement refinement;
   if (opt.refine_effects && active_effects(popt.effects).empty()) {
@@ -165,12 +177,14 @@ int run_fit(const FitCommandOptions& opt) {
     if (progress.enabled()) show("validating held-out runs", 0, 1);
     validation = validate_model(model, held_out.dataset, held_out.data, vo);
   }
-  const fs::path out(opt.out_dir);
+  // A failed fit (exit 3) does not replace a previous output: its report is kept only where
+  // there was none.
+  const bool keep_previous = !fit.usable() && fs::exists(out / "model.json");
   try {
-    fs::create_directories(out);
-    write_model_file(out / "model.json", model);
+    const fs::path tmp = folder->path();
+    write_model_file(tmp / "model.json", model);
     PlotOptions plot_opt;
-    plot_opt.out_dir = out;
+    plot_opt.out_dir = tmp;
     if (progress.enabled()) plot_opt.progress = show;
     std::string plot_warning;
     const std::string figures =
@@ -188,7 +202,8 @@ int run_fit(const FitCommandOptions& opt) {
       report.appendix_markdown += "\n" + validation_markdown((out / "model.json").string(),
                                                              held_out_label, *validation, "##");
     }
-    write_text_atomic(out / "report.md", fit_report_markdown(ds, fit, report));
+    write_text_atomic(tmp / "report.md", fit_report_markdown(ds, fit, report));
+    if (!keep_previous) folder->commit();
   } catch (const std::exception& e) {
     std::fprintf(stderr, "omni_fit fit: writing %s: %s\n", out.string().c_str(), e.what());
     return 2;
@@ -223,8 +238,12 @@ int run_fit(const FitCommandOptions& opt) {
                                 validation->brief_report().c_str());
   }
   if (!fit.usable() && !opt.quiet) {
-    std::fprintf(stderr, "omni_fit fit: no model could be identified from %s (see report.md)\n",
-                 joined(opt.dataset_dirs).c_str());
+    std::fprintf(stderr, "omni_fit fit: no model could be identified from %s (%s)\n",
+                 joined(opt.dataset_dirs).c_str(),
+                 keep_previous ? ("the previous output in " + out.string() +
+                                  " is kept; give a new -o folder for this fit's report")
+                                     .c_str()
+                               : "see report.md");
   }
   return fit.usable() ? 0 : 3;
 }

@@ -3,6 +3,9 @@
 // (diagnose_command.cpp), sweep (sweep_command.cpp) and demo (demo_command.cpp); this file adds
 // them and dispatches (fit's options are still declared here).
 #include <CLI/CLI.hpp>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
 
 #include "apps/common/exit_code.hpp"
 #include "demo_command.hpp"
@@ -79,11 +82,19 @@ int main(int argc, char** argv) {
     return alphainv::apps::exit_status(code == 0 ? alphainv::apps::ExitCode::kOk
                                                  : alphainv::apps::ExitCode::kUsage);
   }
-  if (*demo) return omni_fit::run_demo(demo_options);
-  if (*fitc) return omni_fit::run_fit(fo);
-  if (*simc) return omni_fit::run_simulate(so);
-  if (*diagc) return omni_fit::run_diagnose(dgo);
-  if (*sweepc) return omni_fit::run_sweep(swo);
-  if (*valc) return omni_fit::run_validate(vao);
-  return alphainv::apps::exit_status(alphainv::apps::ExitCode::kOk);
+  int code = alphainv::apps::exit_status(alphainv::apps::ExitCode::kOk);
+  if (*demo) code = omni_fit::run_demo(demo_options);
+  if (*fitc) code = omni_fit::run_fit(fo);
+  if (*simc) code = omni_fit::run_simulate(so);
+  if (*diagc) code = omni_fit::run_diagnose(dgo);
+  if (*sweepc) code = omni_fit::run_sweep(swo);
+  if (*valc) code = omni_fit::run_validate(vao);
+  // What a command printed must have arrived (`> /dev/full`, a closed pipe): else not exit 0.
+  errno = 0;
+  if (std::fflush(stdout) != 0 || std::ferror(stdout)) {
+    std::fprintf(stderr, "omni_fit: cannot write to standard output%s%s\n", errno ? ": " : "",
+                 errno ? std::strerror(errno) : "");
+    if (code == 0) code = alphainv::apps::exit_status(alphainv::apps::ExitCode::kBadInput);
+  }
+  return code;
 }

@@ -1,6 +1,8 @@
 #include "simulate_command.hpp"
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <string>
 
@@ -10,6 +12,7 @@
 #include "alphainv/simulate/model_simulation.hpp"
 #include "apps/common/units.hpp"
 #include "common/format.hpp"
+#include "common/output_folder.hpp"
 
 namespace omni_fit {
 
@@ -153,13 +156,19 @@ int run_simulate(const SimulateCommandOptions& o) {
   try {
     if (o.out.empty()) {
       const std::string text = format_run_csv(run.data, "stdout");
-      std::fwrite(text.data(), 1, text.size(), stdout);
-      if (std::fflush(stdout) != 0) throw Error("write failed", "stdout");
+      const bool written = std::fwrite(text.data(), 1, text.size(), stdout) == text.size();
+      if (!written || std::fflush(stdout) != 0 || std::ferror(stdout)) {
+        throw Error(std::string("write failed: ") + std::strerror(errno), "stdout");
+      }
     } else {
       const bool as_dataset = o.out.back() == '/' || fs::is_directory(o.out);
       if (as_dataset) {
         const Dataset ds = model_run_dataset(model, run, run_opt.sample_rate_hz);
-        write_dataset(o.out, ds, {run.data});
+        // Written whole beside the folder, then swapped into place (common/output_folder.hpp).
+        const std::string top = fs::path(run.info.file).begin()->string();
+        common::OutputFolder folder(o.out, {"dataset.json", top.c_str()});
+        write_dataset(folder.path(), ds, {run.data});
+        folder.commit();
         wrote = (fs::path(o.out) / "dataset.json").string() + " + " +
                 (fs::path(o.out) / run.info.file).string();
       } else {

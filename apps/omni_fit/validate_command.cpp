@@ -2,6 +2,7 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 
 #include <nlohmann/json.hpp>
 
@@ -12,6 +13,7 @@
 #include "apps/common/exit_code.hpp"
 #include "apps/common/report_numbers.hpp"
 #include "common/atomic_file.hpp"
+#include "common/output_folder.hpp"
 
 namespace omni_fit {
 
@@ -118,6 +120,16 @@ int run_validate(const ValidateCommandOptions& o) {
     std::fprintf(stderr, "omni_fit validate: %s\n", e.what());
     return apps::exit_status(apps::ExitCode::kBadInput);
   }
+  // The output goes to a sibling folder swapped into place at the end (common/output_folder.hpp).
+  std::optional<common::OutputFolder> folder;
+  if (!o.out_dir.empty()) {
+    try {
+      folder.emplace(o.out_dir, std::initializer_list<const char*>{"report.md", "validation.json"});
+    } catch (const Error& e) {
+      std::fprintf(stderr, "omni_fit validate: -o: %s\n", e.what());
+      return apps::exit_status(apps::ExitCode::kBadInput);
+    }
+  }
   ValidationOptions vo;
   vo.initial_samples = o.initial_samples;
   vo.use_alpha = !o.linear;
@@ -126,13 +138,12 @@ int run_validate(const ValidateCommandOptions& o) {
   vo.threads = o.threads;
   const ValidationResult r = validate_model(model, ds, data, vo);
   const nlohmann::json j = validation_json(o.model_path, o.dataset_dir, r);
-  if (!o.out_dir.empty()) {
+  if (folder) {
     try {
-      std::filesystem::create_directories(o.out_dir);
-      common::write_file_atomically(std::filesystem::path(o.out_dir) / "report.md",
+      common::write_file_atomically(folder->path() / "report.md",
                                     validation_markdown(o.model_path, o.dataset_dir, r, "#"));
-      common::write_file_atomically(std::filesystem::path(o.out_dir) / "validation.json",
-                                    j.dump(2) + "\n");
+      common::write_file_atomically(folder->path() / "validation.json", j.dump(2) + "\n");
+      folder->commit();
     } catch (const std::exception& e) {
       std::fprintf(stderr, "omni_fit validate: %s\n", e.what());
       return apps::exit_status(apps::ExitCode::kBadInput);

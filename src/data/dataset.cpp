@@ -20,11 +20,13 @@
 #include "alphainv/error.hpp"
 #include "common/atomic_file.hpp"
 #include "common/format.hpp"
+#include "read_file.hpp"
 
 namespace alphainv {
 namespace {
 
 namespace fs = std::filesystem;
+using data_detail::read_file;
 // Ordered objects keep the key order of the file, so rewriting a dataset keeps its layout.
 using json = nlohmann::ordered_json;
 
@@ -204,35 +206,6 @@ void for_each_cell(std::string_view line, F&& f) {
 
 // --- files
 // ------------------------------------------------------------------------------------------
-
-/// Reads a whole regular file, refusing files larger than `max_bytes` before allocating.
-std::string read_file(const fs::path& path, std::uint64_t max_bytes) {
-  const std::string name = path.string();
-  std::error_code ec;
-  const fs::file_status st = fs::status(path, ec);
-  if (st.type() == fs::file_type::not_found) throw Error("file does not exist", name);
-  if (ec) throw Error("cannot access the file: " + ec.message(), name);
-  if (fs::is_directory(st)) throw Error("expected a file, found a folder", name);
-  if (!fs::is_regular_file(st)) throw Error("expected a regular file", name);
-  const std::uintmax_t size = fs::file_size(path, ec);
-  if (ec) throw Error("cannot read the file size: " + ec.message(), name);
-  if (size > max_bytes) {
-    throw Error("file is " + std::to_string(size) + " bytes; the limit is " +
-                    std::to_string(max_bytes) + " bytes",
-                name);
-  }
-  std::ifstream in(path, std::ios::binary);
-  if (!in)
-    throw Error(std::string("cannot open the file for reading: ") + std::strerror(errno), name);
-  std::string text(static_cast<std::size_t>(size), '\0');
-  in.read(text.data(), static_cast<std::streamsize>(size));
-  if (static_cast<std::uintmax_t>(in.gcount()) != size) {
-    throw Error("read " + std::to_string(in.gcount()) + " bytes, expected " + std::to_string(size) +
-                    " (did the file change while being read?)",
-                name);
-  }
-  return text;
-}
 
 // --- JSON reading
 // -----------------------------------------------------------------------------------
@@ -556,6 +529,27 @@ void validate_run_data(const RunData& data, const std::string& file) {
   }
 }
 
+/// Throws unless run `data` can be a measurement (read_run()'s checks).
+void check_run_sense(const RunData& data, const std::string& file) {
+  bool any_nonzero = false;
+  for (const char* name : {"r", "theta", "v"}) {
+    const std::vector<double>& col = *data.column(name);
+    for (std::size_t k = 0; k < col.size(); ++k) {
+      if (std::abs(col[k]) > kMaxPhysicalMagnitude) {
+        throw Error("expected |" + std::string(name) + "| <= " +
+                        common::shortest(kMaxPhysicalMagnitude) + " (a physical value), found " +
+                        common::shortest(col[k]),
+                    file, static_cast<long>(k + 2), name);
+      }
+      any_nonzero = any_nonzero || col[k] != 0.0;
+    }
+  }
+  if (!any_nonzero) {
+    throw Error("r, theta and v are zero in every row: the run carries no information", file, 0,
+                "v");
+  }
+}
+
 }  // namespace
 
 // --- RunData
@@ -568,6 +562,10 @@ const std::vector<double>* RunData::column(std::string_view name) const {
   if (name == "v") return &v;
   const auto it = extra_columns.find(std::string(name));
   return it == extra_columns.end() ? nullptr : &it->second;
+}
+
+bool is_format_column(std::string_view name) {
+  return contains(kRequiredColumns, name) || contains(kKnownOptionalColumns, name);
 }
 
 // --- reading
@@ -771,8 +769,19 @@ Dataset parse_dataset_index(std::string_view text, const fs::path& dir) {
     in.fail("expected a list of run objects, found " + describe_json(runs), "runs");
   if (runs.empty()) in.fail("expected at least one run, found an empty list", "runs");
   ds.runs.reserve(runs.size());
-  for (std::size_t i = 0; i < runs.size(); ++i)
+  std::map<fs::path, std::size_t> files;  // each run file once: a duplicate entry counts twice
+  for (std::size_t i = 0; i < runs.size(); ++i) {
     ds.runs.push_back(in.run(runs[i], i, ds.controller));
+    const auto [it, inserted] = files.emplace(fs::path(ds.runs[i].file).lexically_normal(), i);
+    if (!inserted) {
+      in.fail("duplicate run entry: " + quote(ds.runs[i].file) + " is already runs[" +
+                  std::to_string(it->second) + "]",
+              "runs[" + std::to_string(i) + "].file");
+    }
+  }
+  if (const json* ended = IndexReader::find(root, "ended"); ended != nullptr) {
+    ds.interrupted = ended->is_string() && ended->get_ref<const std::string&>() == "interrupted";
+  }
 
   root.erase("runs");
   ds.extra_json = root.dump();
@@ -803,7 +812,14 @@ RunData read_run(const Dataset& dataset, std::size_t i, const ReadLimits& limits
                     std::to_string(dataset.runs.size()) + " runs",
                 (dataset.dir / kIndexName).string(), 0, "runs");
   }
-  return read_run_csv(dataset.dir / dataset.runs[i].file, limits);
+  const fs::path csv = dataset.dir / dataset.runs[i].file;
+  std::string text = read_file(csv, limits.max_csv_bytes);
+  if (dataset.interrupted && !text.empty() && text.back() != '\n') {
+    text.resize(text.rfind('\n') + 1);  // the row its writer died writing (npos + 1 == 0)
+  }
+  RunData data = parse_run_csv(text, csv.string(), limits);
+  check_run_sense(data, csv.string());
+  return data;
 }
 
 // --- writing

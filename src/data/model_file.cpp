@@ -12,6 +12,8 @@
 
 #include "alphainv/error.hpp"
 #include "common/atomic_file.hpp"
+#include "common/format.hpp"
+#include "read_file.hpp"
 
 namespace alphainv {
 
@@ -50,6 +52,9 @@ std::array<double, N> get_array(const json& obj, const char* key, std::size_t n,
     if (a[k].is_null() && allow_null) continue;
     if (!a[k].is_number()) throw Error("expected a number", file, 0, path + key + "[" + std::to_string(k) + "]");
     out[k] = a[k].get<double>();
+    if (!std::isfinite(out[k])) {
+      throw Error("expected a finite number", file, 0, path + key + "[" + std::to_string(k) + "]");
+    }
   }
   return out;
 }
@@ -217,9 +222,18 @@ ModelFile parse_model_file(const std::string& text, const std::string& file) {
   if (!j.contains("controller") || !j["controller"].is_object()) throw Error("missing key", file, 0, "controller");
   const json& c = j["controller"];
   m.controller.kp = get_num(c, "kp", file, "controller.");
+  if (!(m.controller.kp > 0.0)) {
+    throw Error("expected the P gain of the identification runs, > 0 [V/rad], found " +
+                    common::shortest(m.controller.kp),
+                file, 0, "controller.kp");
+  }
   m.controller.ki = get_num(c, "ki", file, "controller.");
   m.controller.kd = get_num(c, "kd", file, "controller.");
   const double vl = get_num(c, "v_limit", file, "controller.", true);
+  if (std::isfinite(vl) && !(vl > 0.0)) {
+    throw Error("expected null (no limit) or a command limit > 0, found " + common::shortest(vl),
+                file, 0, "controller.v_limit");
+  }
   m.controller.v_limit = std::isfinite(vl) ? vl : std::numeric_limits<double>::infinity();
   const std::string d = c.value("derivative_on", "error");
   if (d != "error" && d != "measurement") throw Error("expected error or measurement", file, 0, "controller.derivative_on");
@@ -301,11 +315,8 @@ void write_model_file(const std::filesystem::path& path, const ModelFile& model)
 }
 
 ModelFile read_model_file(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error("cannot open the model file", path.string());
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return parse_model_file(ss.str(), path.string());
+  // A regular file of bounded size: /dev/zero, a FIFO or a folder is refused before reading.
+  return parse_model_file(data_detail::read_file(path, kMaxModelFileBytes), path.string());
 }
 
 std::string hash_dataset(const std::filesystem::path& dir, const std::vector<std::string>& run_files) {

@@ -75,6 +75,7 @@ LoopRunner::~LoopRunner() {
 }
 
 void LoopRunner::add_recording(std::uint32_t run_id, RunRecording recording) {
+  prepare_recording_folder(recording);  // before the run is posted: throws naming the folder
   std::lock_guard<std::mutex> lock(mutex_);
   recordings_[run_id] = std::move(recording);
 }
@@ -340,7 +341,7 @@ RunRecorder& LoopRunner::recorder(std::uint32_t run_id) {
       recording = std::move(it->second);
       recordings_.erase(it);
     }
-    slot = std::make_unique<RunRecorder>(run_id, std::move(recording));
+    slot = std::make_unique<RunRecorder>(run_id, std::move(recording), loop_.config(), kp_.load());
   }
   return *slot;
 }
@@ -352,8 +353,12 @@ void LoopRunner::writer_main() {
     while (records_.pop(item)) {
       any = true;
       if (item.end == 0) {
-        std::lock_guard<std::mutex> lock(mutex_);
-        recorder(item.run_id).add(item.record, item.run_start_s);
+        RunRecorder* rec = nullptr;  // only this thread changes partial_: it outlives the lock
+        {
+          std::lock_guard<std::mutex> lock(mutex_);
+          rec = &recorder(item.run_id);
+        }
+        rec->add(item.record, item.run_start_s);  // may write to disk: outside the lock
       } else {
         finish_run(item.run_id, item);
       }
@@ -368,7 +373,7 @@ void LoopRunner::writer_main() {
 void LoopRunner::finish_run(std::uint32_t run_id, const RecordItem& end_item) {
   // The recorder stays in partial_ until the dataset is written: run() waits for partial_ to
   // empty. Only this (writer) thread changes partial_, so the recorder outlives the lock.
-  const RunRecorder* rec = nullptr;
+  RunRecorder* rec = nullptr;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     rec = &recorder(run_id);

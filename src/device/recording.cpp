@@ -1,8 +1,16 @@
 #include "alphainv/device/recording.hpp"
 
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <nlohmann/json.hpp>
+#include <system_error>
 
 #include "alphainv/error.hpp"
+#include "common/atomic_file.hpp"
 
 namespace alphainv::device {
 
@@ -19,6 +27,10 @@ std::string RunResult::brief_report() const {
   if (dropped_rows > 0) {
     out += " (" + std::to_string(dropped_rows) + " rows dropped: the writer fell behind)";
   }
+  if (!non_finite_note.empty()) {
+    out += "; derived cells not finite, written as nan (readers ignore those columns, the "
+           "measured ones are whole): " + non_finite_note;
+  }
   return out;
 }
 
@@ -26,14 +38,79 @@ std::string RunResult::full_report() const {
   return brief_report() + "\ntiming: " + timing.to_text() + "\n";
 }
 
-RunRecorder::RunRecorder(std::uint32_t run_id, std::optional<RunRecording> recording)
-    : run_id_(run_id), recording_(std::move(recording)) {
-  if (recording_) rows_.reserve(1 << 16);
+namespace {
+
+namespace fs = std::filesystem;
+
+/// The extra columns in the order RunCsvAppender writes them (by name).
+const std::vector<std::string> kExtraColumns = {"C",      "alpha",      "beta_tilde",
+                                                "gamma1", "gamma2",     "theta_pred",
+                                                "torque_enable", "v_p",  "v_comp"};
+
+}  // namespace
+
+void prepare_recording_folder(const RunRecording& recording) {
+  const fs::path& dir = recording.dir;
+  const std::string name = dir.string();
+  if (dir.empty()) throw Error("expected a folder to record into, found an empty path");
+  if (!(recording.flush_period_s > 0.0) || recording.rows_per_file < 2) {
+    throw Error("expected flush_period_s > 0 and rows_per_file >= 2", name);
+  }
+  std::error_code ec;
+  const fs::file_status st = fs::status(dir, ec);
+  if (st.type() != fs::file_type::not_found) {
+    if (!fs::is_directory(st)) throw Error("expected a folder, found a file", name);
+    if (!recording.force) {
+      const bool has_index = fs::exists(dir / "dataset.json", ec);
+      if (has_index || !fs::is_empty(dir, ec)) {
+        throw Error(std::string(has_index ? "the folder already holds a dataset (dataset.json)"
+                                          : "the folder is not empty") +
+                        "; give a new folder, or --force to replace the dataset in it",
+                    name);
+      }
+    }
+  }
+  fs::create_directories(dir, ec);
+  if (ec) throw Error("cannot create the folder: " + ec.message(), name);
+  // Prove it writable now rather than after the run: create, write, sync and remove a file.
+  const fs::path probe = dir / (".write_probe." + std::to_string(::getpid()));
+  const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) {
+    throw Error(std::string("cannot write into the folder: ") + std::strerror(errno), name);
+  }
+  const bool ok = ::write(fd, "\n", 1) == 1 && ::fsync(fd) == 0;
+  const int err = errno;
+  ::close(fd);
+  ::unlink(probe.c_str());
+  if (!ok) throw Error(std::string("cannot write into the folder: ") + std::strerror(err), name);
+}
+
+RunRecorder::RunRecorder(std::uint32_t run_id, std::optional<RunRecording> recording,
+                         const rt::ControlLoopConfig& config, double kp)
+    : run_id_(run_id), recording_(std::move(recording)), config_(config), kp_(kp) {
+  part_non_finite_.assign(kExtraColumns.size(), 0);
+}
+
+RunRecorder::~RunRecorder() = default;
+
+std::string RunRecorder::file_name(std::size_t part) const {
+  return part == 0 ? "run.csv" : "run_" + std::to_string(part + 1) + ".csv";
+}
+
+long RunRecorder::rows_flushed() const noexcept {
+  return rows_closed_ + (csv_ ? static_cast<long>(csv_->rows_flushed()) : 0);
 }
 
 void RunRecorder::add(const rt::TickRecord& record, double run_start_s) {
   if (ticks_ == 0) run_start_s_ = run_start_s;
-  if (recording_) rows_.push_back(record);
+  if (recording_ && write_error_.empty()) {
+    try {
+      write_row(record);
+    } catch (const std::exception& e) {
+      write_error_ = e.what();
+      csv_.reset();  // the rows synced so far stay readable
+    }
+  }
   latency_.add(record.wake_latency_s);
   if (ticks_ > 0) period_jitter_.add(record.period_jitter_s);
   read_.add(record.read_s);
@@ -43,30 +120,44 @@ void RunRecorder::add(const rt::TickRecord& record, double run_start_s) {
   skipped_ += record.deadlines_skipped;
 }
 
-RunData RunRecorder::run_data() const {
-  RunData data;
-  const std::size_t n = rows_.size();
-  const char* extra_names[] = {"gamma1",     "gamma2",     "alpha",        "C",
-                               "beta_tilde", "theta_pred", "torque_enable", "v_p", "v_comp"};
-  for (const char* name : extra_names) data.extra_columns[name].reserve(n);
-  data.t.reserve(n);
-  const double t0 = run_start_s_;  // t = 0 where the waveform starts
-  for (const rt::TickRecord& r : rows_) {
-    data.t.push_back(r.t_s - t0);
-    data.r.push_back(r.r_rad);
-    data.theta.push_back(r.theta_rad);
-    data.v.push_back(r.command_v);
-    data.extra_columns["gamma1"].push_back(r.gamma1_rad);
-    data.extra_columns["gamma2"].push_back(r.gamma2_rad);
-    data.extra_columns["alpha"].push_back(r.alpha);
-    data.extra_columns["C"].push_back(r.damping);
-    data.extra_columns["beta_tilde"].push_back(r.beta_tilde);
-    data.extra_columns["theta_pred"].push_back(r.theta_pred_rad);
-    data.extra_columns["torque_enable"].push_back(r.enable ? 1.0 : 0.0);
-    data.extra_columns["v_p"].push_back(r.p_command_v);
-    data.extra_columns["v_comp"].push_back(r.comp_command_v);
+void RunRecorder::start_file() {
+  const std::size_t part = first_rows_.size() - 1;
+  std::error_code ec;
+  if (part == 0) fs::create_directories(recording_->dir, ec);  // prepare_recording_folder's job
+  csv_ = std::make_unique<RunCsvAppender>(recording_->dir / file_name(part), kExtraColumns);
+  if (csv_->extra_columns() != kExtraColumns) throw Error("the run file's columns changed order");
+}
+
+void RunRecorder::write_row(const rt::TickRecord& r) {
+  const double t = r.t_s - run_start_s_;  // t = 0 where the waveform starts
+  const bool new_file = !csv_ || csv_->rows() >= recording_->rows_per_file;
+  if (new_file) {
+    if (csv_) {
+      csv_->close();
+      for (std::size_t j = 0; j < kExtraColumns.size(); ++j) {
+        part_non_finite_[j] += static_cast<long>(csv_->non_finite_cells(j));
+      }
+      rows_closed_ += static_cast<long>(csv_->rows());
+    }
+    first_rows_.push_back(r);
+    start_file();
   }
-  return data;
+  const double row[] = {t,           r.r_rad,       r.theta_rad,    r.command_v,
+                        r.damping,   r.alpha,       r.beta_tilde,   r.gamma1_rad,
+                        r.gamma2_rad, r.theta_pred_rad, r.enable ? 1.0 : 0.0,
+                        r.p_command_v, r.comp_command_v};
+  csv_->add_row(row);
+  ++rows_;
+  if (new_file) {
+    // The file's first row on disk, then the index naming it: dataset.json never names a file
+    // without rows.
+    csv_->flush();
+    last_flush_t_s_ = t;
+    write_index("interrupted", nullptr);
+  } else if (t - last_flush_t_s_ >= recording_->flush_period_s) {
+    csv_->flush();
+    last_flush_t_s_ = t;
+  }
 }
 
 Dataset RunRecorder::dataset(const RunResult& result, const rt::ControlLoopConfig& config,
@@ -78,7 +169,6 @@ Dataset RunRecorder::dataset(const RunResult& result, const rt::ControlLoopConfi
   ds.controller.kp = kp;
   ds.controller.v_limit = config.safety.max_command_v;
   RunInfo info;
-  info.file = "run.csv";
   switch (recording.wave.kind) {
     case rt::WaveKind::kSine:
     case rt::WaveKind::kSquare:
@@ -95,11 +185,23 @@ Dataset RunRecorder::dataset(const RunResult& result, const rt::ControlLoopConfi
       break;
   }
   info.controller = ds.controller;
-  if (!rows_.empty()) {
-    info.gamma1_deg = rad_to_deg(rows_.front().gamma1_rad);
-    info.gamma2_deg = rad_to_deg(rows_.front().gamma2_rad);
+  for (std::size_t part = 0; part < std::max<std::size_t>(first_rows_.size(), 1); ++part) {
+    RunInfo p = info;
+    p.file = file_name(part);
+    if (part < first_rows_.size()) {
+      p.gamma1_deg = rad_to_deg(first_rows_[part].gamma1_rad);
+      p.gamma2_deg = rad_to_deg(first_rows_[part].gamma2_rad);
+    }
+    if (part > 0) {
+      // A continuation: a step or hold is no longer one from its start.
+      if (p.kind != "sine" && p.kind != "square") {
+        p.kind = "other";
+        p.amplitude_rad.reset();
+      }
+      p.extra_json = nlohmann::json({{"continues", file_name(part - 1)}}).dump();
+    }
+    ds.runs.push_back(p);
   }
-  ds.runs.push_back(info);
   nlohmann::json extra = {
       {"source", "omni_ctl"},
       {"command_line", recording.command_line},
@@ -125,13 +227,36 @@ Dataset RunRecorder::dataset(const RunResult& result, const rt::ControlLoopConfi
   return ds;
 }
 
+void RunRecorder::write_index(const std::string& ended, const RunResult* result) const {
+  const RunResult none;
+  Dataset ds = dataset(result != nullptr ? *result : none, config_, kp_);
+  nlohmann::json extra = nlohmann::json::parse(ds.extra_json);
+  if (result == nullptr) {  // written when the recording starts: what a kill leaves
+    extra.erase("rows");
+    extra.erase("dropped_rows");
+    extra.erase("timing");
+    extra["ended"] = ended;
+    extra["interrupted"] =
+        "written when the recording started and rewritten when it ends: a dataset still "
+        "saying \"interrupted\" was cut short (a kill, a crash, a power cut); its run files "
+        "hold every row up to the last flush, at most flush_period_s before the end";
+    extra["flush_period_s"] = recording_->flush_period_s;
+  } else if (!result->recording_error.empty()) {
+    extra["recording_error"] = result->recording_error;
+  }
+  if (result != nullptr && !result->non_finite_note.empty()) {
+    extra["non_finite_cells"] = result->non_finite_note;
+  }
+  ds.extra_json = extra.dump();
+  common::write_file_atomically(recording_->dir / "dataset.json", format_dataset_index(ds));
+}
+
 RunResult RunRecorder::finish(const RunEnd& end, const rt::ControlLoopConfig& config,
-                              double kp) const {
+                              double kp) {
   RunResult result;
   result.run_id = run_id_;
   result.fault = end.fault;
   result.stopped = end.stopped;
-  result.rows = static_cast<long>(rows_.size());
   result.dropped_rows = end.dropped_rows;
   result.timing.ticks = ticks_;
   result.timing.deadline_misses = misses_;
@@ -144,11 +269,48 @@ RunResult RunRecorder::finish(const RunEnd& end, const rt::ControlLoopConfig& co
   if (!recording_) return result;
 
   result.dir = recording_->dir;
+  config_ = config;
+  kp_ = kp;
+  if (csv_ && write_error_.empty()) {
+    try {
+      csv_->close();
+    } catch (const std::exception& e) {
+      write_error_ = e.what();
+    }
+  }
+  result.rows = rows_flushed();
+  std::vector<long> non_finite = part_non_finite_;
+  for (std::size_t j = 0; csv_ && j < kExtraColumns.size(); ++j) {
+    non_finite[j] += static_cast<long>(csv_->non_finite_cells(j));
+  }
+  for (std::size_t j = 0; j < kExtraColumns.size(); ++j) {
+    if (non_finite[j] == 0) continue;
+    if (!result.non_finite_note.empty()) result.non_finite_note += ", ";
+    result.non_finite_note += kExtraColumns[j] + ": " + std::to_string(non_finite[j]);
+  }
+  if (!write_error_.empty()) {
+    result.recording_error = write_error_ + " (" + std::to_string(result.rows) +
+                             " rows were synced to disk before it)";
+  }
+  std::error_code ec;
+  if (rows_ < 2) {
+    // Nothing worth a dataset: remove what the first row created.
+    for (std::size_t part = 0; part < first_rows_.size(); ++part) {
+      fs::remove(recording_->dir / file_name(part), ec);
+    }
+    fs::remove(recording_->dir / "dataset.json", ec);
+    result.rows = 0;
+    if (result.recording_error.empty()) {
+      result.recording_error =
+          Error("fewer than 2 ticks were recorded", recording_->dir.string()).what();
+    }
+    return result;
+  }
   try {
-    if (rows_.size() < 2) throw Error("fewer than 2 ticks were recorded", recording_->dir.string());
-    write_dataset(recording_->dir, dataset(result, config, kp), {run_data()});
+    write_index(result.ended(), &result);
   } catch (const std::exception& e) {
-    result.recording_error = e.what();
+    if (!result.recording_error.empty()) result.recording_error += "; ";
+    result.recording_error += e.what();
   }
   return result;
 }

@@ -469,14 +469,14 @@ TEST_F(DatasetTest, ReadRunIndexOutOfRange) {
 // ------------------------------------------------------------------
 
 TEST_F(DatasetTest, IndexDefaultsShorthandAndControllerMerge) {
-  write_text(dir_ / "runs" / "a.csv", kGoodCsv);
+  for (const char* f : {"a.csv", "b.csv", "c.csv"}) write_text(dir_ / "runs" / f, kGoodCsv);
   write_text(dir_ / "dataset.json", R"({
     "format": "alphainv-dataset/1", "kp": 2.5, "source": "bench", "sample_rate_hz": null,
     "controller": {"kd": 0.1, "derivative_on": "measurement", "v_limit": 12, "note": "x"},
     "runs": [
     {"file": "runs/a.csv", "kind": "sine", "freq_hz": 0.5, "amplitude_rad": 0.2, "gamma1_deg": 90},
-    {"file": "runs/a.csv", "kind": "step", "kp": 7, "controller": {"v_limit": null, "ki": 1}},
-    {"file": "./runs/a.csv", "kind": "chirp", "trajectory": "up", "controller": {"kp": 4}}
+    {"file": "runs/b.csv", "kind": "step", "kp": 7, "controller": {"v_limit": null, "ki": 1}},
+    {"file": "./runs/c.csv", "kind": "chirp", "trajectory": "up", "controller": {"kp": 4}}
     ]})");
   const Dataset ds = read_dataset_index(dir_);
   EXPECT_EQ(ds.dir, dir_);
@@ -598,13 +598,16 @@ TEST_F(DatasetTest, RoundTripIsBitIdentical) {
   for (std::size_t i = 0; i < ds.runs.size(); ++i) {
     SCOPED_TRACE(i);
     expect_same_run_info(back.runs[i], ds.runs[i]);
-    expect_same_data(read_run(back, i), data[i]);
+    // Random bit patterns as theta and v: the CSV layer's property, beside read_run's checks
+    // for sense (|theta| <= kMaxPhysicalMagnitude).
+    expect_same_data(read_run_csv(back.dir / back.runs[i].file), data[i]);
   }
   expect_contains(back.runs[0].extra_json, {"\"trajectory\":\"s1\""});
   EXPECT_EQ(back.runs[0].extra_json.find("99"), std::string::npos);
 
   // Writing what was read gives the same files, byte for byte.
-  std::vector<RunData> data_back = {read_run(back, 0), read_run(back, 1)};
+  std::vector<RunData> data_back = {read_run_csv(back.dir / back.runs[0].file),
+                                    read_run_csv(back.dir / back.runs[1].file)};
   write_dataset(dir_ / "again", back, data_back);
   auto slurp = [](const fs::path& p) {
     std::ifstream in(p, std::ios::binary);
@@ -794,6 +797,66 @@ TEST(RealDatasets, PendulumLoads) {
     }
   }
   EXPECT_TRUE(saw_free_fall) << "lift_and_drop runs switch the torque off";
+}
+
+// --- issue #13: inputs checked for sense, and what an interrupted writer leaves -------------
+
+// Finding 13: a duplicate run entry was used twice without a word.
+TEST_F(DatasetTest, ADuplicateRunEntryIsRefusedNamingBothEntries) {
+  write_text(dir_ / "runs" / "a.csv", kGoodCsv);
+  write_text(dir_ / "dataset.json",
+             index_json(R"({"file": "runs/a.csv", "kind": "step"}, {"file": "runs/b.csv",
+             "kind": "step"}, {"file": "runs/./a.csv", "kind": "step"})"));
+  write_text(dir_ / "runs" / "b.csv", kGoodCsv);
+  const Error e = error_of([&] { read_dataset_index(dir_); });
+  EXPECT_EQ(e.field(), "runs[2].file");
+  EXPECT_NE(std::string(e.what()).find("duplicate run entry: 'runs/./a.csv' is already runs[0]"),
+            std::string::npos) << e.what();
+}
+
+// Finding 13: an all-zero run and v = 1e300 were fitted without a note.
+TEST_F(DatasetTest, ReadRunRefusesARunWithoutInformationAndValuesNoMeasurementHas) {
+  write_text(dir_ / "dataset.json", index_json(R"({"file": "zero.csv", "kind": "step"},
+             {"file": "huge.csv", "kind": "step"}, {"file": "edge.csv", "kind": "step"})"));
+  write_text(dir_ / "zero.csv", "t,r,theta,v,gamma1\n0,0,0,0,1.0\n0.001,0,0,-0,1.0\n");
+  write_text(dir_ / "huge.csv", "t,r,theta,v\n0,0,0,0\n0.001,0.1,0.01,1e300\n");
+  write_text(dir_ / "edge.csv", "t,r,theta,v\n0,0,0,-1e9\n0.001,0,0,1e9\n");
+  const Dataset ds = read_dataset_index(dir_);
+  const Error zero = error_of([&] { read_run(ds, 0); });
+  EXPECT_EQ(zero.file(), (dir_ / "zero.csv").string());
+  EXPECT_NE(std::string(zero.what()).find("zero in every row: the run carries no information"),
+            std::string::npos) << zero.what();
+  const Error huge = error_of([&] { read_run(ds, 1); });
+  EXPECT_EQ(huge.line(), 3);
+  EXPECT_EQ(huge.field(), "v");
+  EXPECT_NE(std::string(huge.what()).find("found 1e+300"), std::string::npos) << huge.what();
+  EXPECT_EQ(read_run(ds, 2).v[1], 1e9);  // the bound itself is accepted
+  EXPECT_EQ(read_run_csv(dir_ / "huge.csv").v[1], 1e300);  // the CSV layer reads any double
+}
+
+// Finding 9: a recording killed inside a write leaves a last line without its end. The reader
+// drops it when dataset.json says "ended": "interrupted", and only then.
+TEST_F(DatasetTest, AnInterruptedDatasetLosesOnlyItsIncompleteLastLine) {
+  const std::string torn = std::string(kGoodCsv) + "0.002,0.2,0.0";
+  write_text(dir_ / "run.csv", torn);
+  write_text(dir_ / "dataset.json",
+             index_json(R"({"file": "run.csv", "kind": "step"})", R"("ended": "interrupted", )"));
+  const Dataset ds = read_dataset_index(dir_);
+  EXPECT_TRUE(ds.interrupted);
+  const RunData run = read_run(ds, 0);
+  ASSERT_EQ(run.size(), 2u);
+  EXPECT_EQ(run.v[1], 1.5);
+  write_text(dir_ / "run.csv", std::string(kGoodCsv) + "0.002,0.2,0.0,2");  // cut inside a number
+  EXPECT_EQ(read_run(read_dataset_index(dir_), 0).size(), 2u);
+
+  // A dataset that ended: the same line is an error, as before.
+  write_text(dir_ / "run.csv", torn);
+  write_text(dir_ / "dataset.json",
+             index_json(R"({"file": "run.csv", "kind": "step"})", R"("ended": "completed", )"));
+  const Dataset done = read_dataset_index(dir_);
+  EXPECT_FALSE(done.interrupted);
+  const Error e = error_of([&] { read_run(done, 0); });
+  EXPECT_EQ(e.line(), 4);
 }
 
 }  // namespace

@@ -5,6 +5,8 @@
 #include <fstream>
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include "alphainv/error.hpp"
 
@@ -206,6 +208,56 @@ TEST(ModelFile, RefusesToWriteWhatItWouldNotRead) {
   m = sample_model();
   m.loop_period_s = -1.0;
   EXPECT_THROW(format_model_file(m), Error);
+}
+
+// Finding 13 of issue #13: a model with kp -2 or v_limit -1 simulated (theta 3.5e5 rad).
+TEST(ModelFile, PhysicallyImpossibleValuesAreRefusedNamingTheKey) {
+  std::string text = format_model_file(sample_model());
+  auto replaced = [&](const std::string& from, const std::string& to) {
+    std::string t = text;
+    const std::size_t at = t.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    return at == std::string::npos ? t : t.replace(at, from.size(), to);
+  };
+  expect_error(replaced("\"kp\": 2.0", "\"kp\": -2.0"), "'controller.kp': expected the P gain");
+  expect_error(replaced("\"kp\": 2.0", "\"kp\": 0.0"), "'controller.kp'");
+  expect_error(replaced("\"v_limit\": null", "\"v_limit\": -1"),
+               "'controller.v_limit': expected null (no limit) or a command limit > 0, found -1");
+  expect_error(replaced("\"v_limit\": null", "\"v_limit\": 0"), "'controller.v_limit'");
+  EXPECT_EQ(parse_model_file(replaced("\"v_limit\": null", "\"v_limit\": 1.5"), "m.json")
+                .controller.v_limit, 1.5);
+}
+
+// Finding 4 of issue #13: a model file that is /dev/zero was read without bound (bad_alloc) and
+// a FIFO hung `simulate`. Both are refused before reading, as are folders and huge files.
+TEST(ModelFile, OnlyARegularFileOfBoundedSizeIsRead) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("alphainv_test_model_file_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  auto error_for = [](const fs::path& p) {
+    try {
+      read_model_file(p);
+    } catch (const Error& e) {
+      EXPECT_EQ(e.file(), p.string());
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(error_for("/dev/zero").find("expected a regular file"), std::string::npos);
+  const fs::path fifo = dir / "model.fifo";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  EXPECT_NE(error_for(fifo).find("expected a regular file"), std::string::npos);  // no hang
+  EXPECT_NE(error_for(dir).find("found a folder"), std::string::npos);
+  EXPECT_NE(error_for(dir / "missing.json").find("does not exist"), std::string::npos);
+  const fs::path big = dir / "big.json";
+  { std::ofstream(big) << "{}"; }
+  fs::resize_file(big, kMaxModelFileBytes + 1);
+  EXPECT_NE(error_for(big).find("the limit is 16777216 bytes"), std::string::npos);
+  const fs::path good = dir / "model.json";
+  write_model_file(good, sample_model());
+  EXPECT_EQ(read_model_file(good).controller.kp, 2.0);
+  fs::remove_all(dir);
 }
 
 }  // namespace

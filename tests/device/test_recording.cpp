@@ -1,14 +1,21 @@
 // RunRecorder on synthetic tick records: the rows, columns and values of the dataset it writes,
 // dataset.json's run and extra keys, the run's timing statistics, and RunResult's verdict and
-// reports (recorded, not recorded, too short, a fault, dropped rows).
+// reports (recorded, not recorded, too short, a fault, dropped rows); the dataset on disk while
+// the run goes on (what a kill leaves), non-finite derived cells, long runs in several files,
+// and prepare_recording_folder()'s checks.
 #include "alphainv/device/recording.hpp"
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
+#include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <memory>
 
 #include "alphainv/data/dataset.hpp"
+#include "alphainv/error.hpp"
 #include "support/files.hpp"
 
 using namespace alphainv;
@@ -143,32 +150,185 @@ TEST(RunRecorder, GathersTheRunsTimingStatistics) {
 }
 
 TEST(RunRecorder, TheWaveformNamesTheRun) {
-  const auto rec = recorder_with(3, sine_recording("unused"));
+  const fs::path dir = temp_dir("names");
+  const auto rec = recorder_with(3, sine_recording(dir));
   const rt::ControlLoopConfig config;
   const RunResult result;
   const Dataset sine = rec->dataset(result, config, 2.0);
   EXPECT_EQ(sine.runs[0].kind, "sine");
 
-  RunRecording step = sine_recording("unused");
+  RunRecording step = sine_recording(dir);
   step.wave = rt::Waveform{rt::WaveKind::kStep, 0.05, 0.0, 0.0};
   const RunInfo s = recorder_with(3, step)->dataset(result, config, 2.0).runs[0];
   EXPECT_EQ(s.kind, "step");
   EXPECT_FALSE(s.freq_hz.has_value());
   EXPECT_EQ(s.amplitude_rad.value(), 0.05);
 
-  RunRecording square = sine_recording("unused");
+  RunRecording square = sine_recording(dir);
   square.wave = rt::Waveform{rt::WaveKind::kSquare, 0.06, 0.25, 0.0};
   const RunInfo q = recorder_with(3, square)->dataset(result, config, 2.0).runs[0];
   EXPECT_EQ(q.kind, "square");
   EXPECT_EQ(q.freq_hz.value(), 0.25);
   EXPECT_EQ(q.amplitude_rad.value(), 0.06);
 
-  RunRecording hold = sine_recording("unused");
+  RunRecording hold = sine_recording(dir);
   hold.wave = rt::Waveform{rt::WaveKind::kHold, 0.07, 3.0, 0.0};
   const RunInfo h = recorder_with(3, hold)->dataset(result, config, 2.0).runs[0];
   EXPECT_EQ(h.kind, "other");
   EXPECT_FALSE(h.freq_hz.has_value());
   EXPECT_FALSE(h.amplitude_rad.has_value());
+  fs::remove_all(dir);
+}
+
+// Finding 9 of issue #13: SIGKILL or a crash left nothing on disk. Now the folder holds, while the
+// run goes on, a dataset.json saying "interrupted" and every row up to the last flush; a row cut
+// short by the kill is dropped by the reader.
+TEST(RunRecorder, WhileTheRunGoesOnTheDiskHoldsADatasetOfEveryRowUpToTheLastFlush) {
+  const fs::path dir = temp_dir("interrupted");
+  RunRecording recording = sine_recording(dir);
+  recording.flush_period_s = 1.0;
+  prepare_recording_folder(recording);
+  RunRecorder rec(7, recording, rt::ControlLoopConfig{}, 2.0);
+  const int n = 2500;  // 2.5 s of ticks
+  for (int k = 0; k < n; ++k) {
+    rec.add(tick(k), kStartS);
+    if (k == 0) {  // the first row is on disk with the index naming it
+      EXPECT_EQ(rec.rows_flushed(), 1);
+      EXPECT_EQ(read_run(read_dataset_index(dir), 0).size(), 1u);
+    }
+  }
+  // "Killed" now: no finish(). What is on disk is a dataset omni_fit reads.
+  const Dataset ds = read_dataset_index(dir);
+  EXPECT_TRUE(ds.interrupted);
+  EXPECT_NE(slurp(dir / "dataset.json").find("\"ended\": \"interrupted\""), std::string::npos);
+  const RunData run = read_run(ds, 0);
+  EXPECT_EQ(static_cast<long>(run.size()), rec.rows_flushed());
+  EXPECT_GE(static_cast<long>(run.size()), n - 1000);  // at most one flush period lost
+  EXPECT_LT(static_cast<long>(run.size()), n);          // the rows since the flush are not
+  for (std::size_t i = 0; i < run.size(); ++i) ASSERT_EQ(run.theta[i], tick(static_cast<int>(i)).theta_rad);
+
+  // A kill inside a write leaves a last line without its end: dropped, the rows before kept.
+  { std::ofstream(dir / "run.csv", std::ios::app) << "2.9,0.1,0.0"; }
+  EXPECT_EQ(read_run(read_dataset_index(dir), 0).size(), run.size());
+
+  // A clean end: every row, and dataset.json rewritten with how the run ended.
+  fs::resize_file(dir / "run.csv", fs::file_size(dir / "run.csv") - 11);
+  const RunResult result = rec.finish(RunEnd{}, rt::ControlLoopConfig{}, 2.0);
+  ASSERT_TRUE(result.usable()) << result.brief_report();
+  EXPECT_EQ(result.rows, n);
+  const Dataset done = read_dataset_index(dir);
+  EXPECT_FALSE(done.interrupted);
+  EXPECT_EQ(read_run(done, 0).size(), static_cast<std::size_t>(n));
+  EXPECT_NE(slurp(dir / "dataset.json").find("\"ended\": \"completed\""), std::string::npos);
+  fs::remove_all(dir);
+}
+
+// Finding 9: a model the reader accepts whose prediction overflows (C_n1 = 1e308) made
+// theta_pred NaN and the whole recording was lost (rc 5). Now only the derived column is.
+TEST(RunRecorder, NonFiniteDerivedCellsNeverCostTheMeasuredColumns) {
+  const fs::path dir = temp_dir("nonfinite");
+  RunRecorder rec(7, sine_recording(dir), rt::ControlLoopConfig{}, 2.0);
+  for (int k = 0; k < 50; ++k) {
+    rt::TickRecord r = tick(k);
+    if (k >= 10) r.theta_pred_rad = k % 2 ? std::nan("") : HUGE_VAL;
+    if (k >= 40) r.damping = -HUGE_VAL;
+    rec.add(r, kStartS);
+  }
+  const RunResult result = rec.finish(RunEnd{}, rt::ControlLoopConfig{}, 2.0);
+  ASSERT_TRUE(result.usable()) << result.brief_report();
+  EXPECT_EQ(result.non_finite_note, "C: 10, theta_pred: 40");
+  EXPECT_NE(result.brief_report().find("written as nan"), std::string::npos);
+  const RunData run = read_run(read_dataset_index(dir), 0);
+  ASSERT_EQ(run.size(), 50u);
+  EXPECT_EQ(run.column("theta_pred"), nullptr);
+  EXPECT_EQ(run.column("C"), nullptr);
+  EXPECT_EQ(run.ignored_columns, (std::vector<std::string>{"C", "theta_pred"}));
+  for (std::size_t i = 0; i < run.size(); ++i) {
+    const rt::TickRecord r = tick(static_cast<int>(i));
+    ASSERT_EQ(run.theta[i], r.theta_rad);
+    ASSERT_EQ(run.v[i], r.command_v);
+    ASSERT_EQ((*run.column("alpha"))[i], r.alpha);
+  }
+  EXPECT_NE(slurp(dir / "dataset.json").find("\"non_finite_cells\": \"C: 10, theta_pred: 40\""),
+            std::string::npos);
+  fs::remove_all(dir);
+}
+
+// Finding 9: a run over ~13.9 h could never be written (50 M-row writer limit). Now a run goes on
+// in run_2.csv, run_3.csv, … of rows_per_file rows, each within the reader's limits.
+TEST(RunRecorder, ALongRunGoesOnInFurtherRunFiles) {
+  const fs::path dir = temp_dir("parts");
+  RunRecording recording = sine_recording(dir);
+  recording.rows_per_file = 1000;
+  RunRecorder rec(7, recording, rt::ControlLoopConfig{}, 2.0);
+  for (int k = 0; k < 2500; ++k) rec.add(tick(k), kStartS);
+  EXPECT_EQ(read_dataset_index(dir).runs.size(), 3u);  // the index names each file as it starts
+  const RunResult result = rec.finish(RunEnd{}, rt::ControlLoopConfig{}, 2.0);
+  ASSERT_TRUE(result.usable()) << result.brief_report();
+  EXPECT_EQ(result.rows, 2500);
+  const Dataset ds = read_dataset_index(dir);
+  ASSERT_EQ(ds.runs.size(), 3u);
+  const std::vector<std::string> files = {"run.csv", "run_2.csv", "run_3.csv"};
+  const std::vector<std::size_t> rows = {1000, 1000, 500};
+  std::size_t k = 0;
+  for (std::size_t p = 0; p < 3; ++p) {
+    EXPECT_EQ(ds.runs[p].file, files[p]);
+    EXPECT_EQ(ds.runs[p].kind, "sine");
+    EXPECT_EQ(ds.runs[p].freq_hz.value(), 3.0);
+    const RunData run = read_run(ds, p);
+    ASSERT_EQ(run.size(), rows[p]);
+    EXPECT_DOUBLE_EQ(ds.runs[p].gamma1_deg.value(), rad_to_deg(tick(static_cast<int>(k)).gamma1_rad));
+    for (std::size_t i = 0; i < run.size(); ++i, ++k) {
+      ASSERT_EQ(run.theta[i], tick(static_cast<int>(k)).theta_rad);
+    }
+  }
+  fs::remove_all(dir);
+}
+
+// Finding 9: an unwritable --record folder was found only after the run, and --record into an
+// existing dataset replaced it silently. prepare_recording_folder() runs before the motor moves.
+TEST(PrepareRecordingFolder, RefusesAnExistingDatasetWithoutForceAndAFolderItCannotWrite) {
+  const fs::path dir = temp_dir("prepare");
+  RunRecording recording = sine_recording(dir);
+  prepare_recording_folder(recording);  // created
+  EXPECT_TRUE(fs::is_directory(dir));
+  EXPECT_TRUE(fs::is_empty(dir));  // the probe file is gone
+  prepare_recording_folder(recording);  // an empty folder is fine
+
+  { std::ofstream(dir / "dataset.json") << "{}"; }
+  try {
+    prepare_recording_folder(recording);
+    ADD_FAILURE() << "an existing dataset was accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.file(), dir.string());
+    EXPECT_NE(std::string(e.what()).find("already holds a dataset (dataset.json)"),
+              std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("--force"), std::string::npos);
+  }
+  recording.force = true;
+  EXPECT_NO_THROW(prepare_recording_folder(recording));
+  recording.force = false;
+  fs::remove(dir / "dataset.json");
+  { std::ofstream(dir / "notes.txt") << "mine"; }
+  EXPECT_THROW(prepare_recording_folder(recording), Error);  // not empty
+  EXPECT_EQ(slurp(dir / "notes.txt"), "mine");
+
+  recording.dir = dir / "notes.txt";
+  EXPECT_THROW(prepare_recording_folder(recording), Error);  // a file
+  recording.dir = "/proc/alphainv_cannot_be_created";
+  EXPECT_THROW(prepare_recording_folder(recording), Error);
+  if (::geteuid() != 0) {  // root writes anywhere
+    const fs::path locked = dir / "locked";
+    fs::create_directories(locked);
+    fs::permissions(locked, fs::perms::owner_read | fs::perms::owner_exec);
+    recording.dir = locked;
+    EXPECT_THROW(prepare_recording_folder(recording), Error);
+    fs::permissions(locked, fs::perms::owner_all);
+  }
+  recording.dir = dir / "new";
+  recording.flush_period_s = 0.0;
+  EXPECT_THROW(prepare_recording_folder(recording), Error);
+  fs::remove_all(dir);
 }
 
 TEST(RunResult, SaysWhetherTheRunIsUsableAndWhy) {

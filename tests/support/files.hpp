@@ -2,10 +2,12 @@
 // Test helpers: a fresh temporary folder per test process, a file's whole text.
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 namespace alphainv::test {
 
@@ -24,6 +26,16 @@ inline std::string slurp(const std::filesystem::path& path) {
   std::stringstream s;
   s << f.rdbuf();
   return s.str();
+}
+
+/// Every name in `dir` (not recursive), sorted.
+inline std::vector<std::string> names_in(const std::filesystem::path& dir) {
+  std::vector<std::string> out;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    out.push_back(e.path().filename().string());
+  }
+  std::sort(out.begin(), out.end());
+  return out;
 }
 
 }  // namespace alphainv::test

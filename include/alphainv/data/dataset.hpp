@@ -73,7 +73,11 @@ struct Dataset {
   std::optional<double> sample_rate_hz;  ///< nominal sample rate [Hz]; the `t` column is the truth
   /// The dataset-wide controller (runs may override it).
   Controller controller = kUnstatedController;
-  std::vector<RunInfo> runs;             ///< at least one
+  std::vector<RunInfo> runs;             ///< at least one, each naming a different file
+  /// dataset.json's `ended` is "interrupted": its writer did not finish (a recording killed or
+  /// crashed while it streamed, docs/dataset-format.md). read_run() then drops an incomplete last
+  /// line of each run file. Set by the reader; the writer writes `ended` from extra_json.
+  bool interrupted = false;
   /// The dataset.json object as read, without `runs`, as JSON text, so unknown keys (`source`, ...)
   /// are kept. On writing, the fields above replace the keys they stand for. Empty: none.
   std::string extra_json;
@@ -87,6 +91,11 @@ struct ReadLimits {
   std::size_t max_columns = 1024;                           ///< most columns in one CSV
 };
 
+/// True for the columns the format names and readers read strictly (every cell a finite number):
+/// t, r, theta, v, gamma1, gamma2, disturbance_v, torque_enable. Other columns are the writer's
+/// own; a reader ignores one that holds a cell that is not a finite number.
+bool is_format_column(std::string_view name);
+
 // --- reading -------------------------------------------------------------------------------------
 
 /// Reads `dir`/dataset.json (not the runs) and checks that every run file exists.
@@ -96,7 +105,14 @@ Dataset read_dataset_index(const std::filesystem::path& dir, const ReadLimits& l
 /// exist). `dir` is stored in the result and used to name `dir`/dataset.json in errors.
 Dataset parse_dataset_index(std::string_view json, const std::filesystem::path& dir);
 
-/// Reads run `i` of `dataset` (the file `dataset.dir / dataset.runs[i].file`).
+/// Largest |r|, |theta|, |v| read_run() accepts: no joint position [rad or m] or command [V or
+/// pwm counts] comes near it, and squares of such values (α, eq. (33)) stay finite.
+inline constexpr double kMaxPhysicalMagnitude = 1e9;
+
+/// Reads run `i` of `dataset` (the file `dataset.dir / dataset.runs[i].file`) and checks it for
+/// sense: a run whose r, theta and v are all zero carries no information, and a value beyond
+/// kMaxPhysicalMagnitude is not a measurement; both throw Error naming the file, line and
+/// column. With `dataset.interrupted`, an incomplete last line (no line end) is dropped.
 RunData read_run(const Dataset& dataset, std::size_t i, const ReadLimits& limits = {});
 
 /// Reads one run CSV file.

@@ -59,7 +59,12 @@ struct ModelFile {
 /// over `path`, the folder fsync'ed). Throws alphainv::Error on I/O, and
 /// (before writing anything) on effects or loop_period_s that read_model_file would refuse.
 void write_model_file(const std::filesystem::path& path, const ModelFile& model);
-/// Reads model.json; throws alphainv::Error naming the file and the key on anything malformed.
+/// Largest model.json read_model_file() reads [bytes] (a fitted model is a few kB).
+inline constexpr std::uint64_t kMaxModelFileBytes = std::uint64_t{16} << 20;
+/// Reads model.json, a regular file of at most kMaxModelFileBytes (a FIFO, a device such as
+/// /dev/zero, a folder: a clear error, no hang); throws alphainv::Error naming the file and the
+/// key on anything malformed or physically impossible (controller.kp <= 0, controller.v_limit
+/// <= 0, a coefficient that is not a finite number).
 ModelFile read_model_file(const std::filesystem::path& path);
 /// The JSON text of a model (what write_model_file writes).
 std::string format_model_file(const ModelFile& model);

@@ -96,7 +96,9 @@ class LoopRunner {
   LoopRunner(const LoopRunner&) = delete;
   LoopRunner& operator=(const LoopRunner&) = delete;
 
-  /// Registers the recording of run `run_id`; call before posting its kRun. Any thread.
+  /// Registers the recording of run `run_id`; call before posting its kRun. Any thread. Checks
+  /// the recording's folder first (prepare_recording_folder(): new or empty, or `force`;
+  /// writable) and throws alphainv::Error naming it, so a refused folder never starts a run.
   void add_recording(std::uint32_t run_id, RunRecording recording);
   /// Sends a command to the loop; false when the command ring is full. One producer thread.
   bool post(const LoopCommand& command);
