@@ -66,12 +66,18 @@ py::object run_estimator(rt::AlphaEstimator& est, const InArray& v, bool derivat
   double* pwdd = derivatives ? wdd.mutable_data() : nullptr;
   {
     py::gil_scoped_release release;
-    if (reset && n > 0) est.reset(in[0]);
-    for (py::ssize_t k = 0; k < n; ++k) {
-      const rt::AlphaEstimate e = est.update(in[k]);
-      a[k] = e.alpha;
-      if (pw) pw[k] = e.v, pwd[k] = e.v_dot, pwdd[k] = e.v_ddot;
+    // A local copy: the output arrays cannot alias its state, so it stays in registers.
+    rt::AlphaEstimator local = est;
+    if (reset && n > 0) local.reset(in[0]);
+    if (pw) {
+      for (py::ssize_t k = 0; k < n; ++k) {
+        const rt::AlphaEstimate e = local.update(in[k]);
+        a[k] = e.alpha, pw[k] = e.v, pwd[k] = e.v_dot, pwdd[k] = e.v_ddot;
+      }
+    } else {
+      for (py::ssize_t k = 0; k < n; ++k) a[k] = local.update(in[k]).alpha;
     }
+    est = local;
   }
   if (!derivatives) return std::move(alpha);
   py::dict d;
