@@ -121,7 +121,7 @@ int VirtualDevice::write(const std::uint8_t* data, std::size_t len) noexcept {
   if (entry.fault_active && fault_.kind == SimFaultKind::kDisconnect) return -1;
   entry.delivered = true;
   const double v = entry.report.enable ? scaling_.command_v(entry.report.dac_counts) : 0.0;
-  plant_.step(v, push_.at(plant_.time_s()));
+  plant_.step(v, push_.next(plant_.time_s(), plant_.theta(), plant_.theta_dot()));
   queue_report();
   return static_cast<int>(len);
 }
