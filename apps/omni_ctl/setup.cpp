@@ -30,7 +30,10 @@ rt::ControlLoopConfig make_loop_config(const Options& opt, std::string& model_so
     if (m.has_inertia_model) {
       cfg.inertia = m.linear.inertia;
     } else {
-      model_note += "model file has no inertia model: using the paper's I(gamma1, gamma2). ";
+      // Without an inertia model the fit's alpha model is per pose, fitted with I = 1 (as
+      // omni_fit simulate and validate use it): C = 1/C_n1, beta~ = 1/beta_n1 at any pose.
+      cfg.inertia = InertiaModel{1.0, 0.0, 0.0, 0.0, 0.0};
+      model_note += "model file has no inertia model: its per-pose model is used with I = 1. ";
     }
     if (m.has_alpha_model) {
       cfg.model = m.alpha;

@@ -24,7 +24,8 @@ double number(std::string text, char unit) {
 
 SimPush parse_sim_push(const std::string& text, const std::string& field) {
   const std::string expected =
-      "expected ramp:RATE[,start=S][,max=V] or constant:V[,start=S] (RATE [command unit/s] "
+      "expected ramp:RATE[,start=S][,max=V], hand:SPEED[,stiffness=K][,damping=B][,start=S]"
+      "[,max=V] or constant:V[,start=S] (RATE [command unit/s] "
       "and V [command unit] nonzero, either sign; S >= 0 [s]), got '" + text + "'";
   const std::size_t colon = text.find(':');
   if (colon == std::string::npos) throw Error(expected, {}, 0, field);
@@ -34,6 +35,8 @@ SimPush parse_sim_push(const std::string& text, const std::string& field) {
     push.kind = SimPush::Kind::kRamp;
   } else if (kind == "constant") {
     push.kind = SimPush::Kind::kConstant;
+  } else if (kind == "hand") {
+    push.kind = SimPush::Kind::kHand;
   } else {
     throw Error(expected, {}, 0, field);
   }
@@ -55,8 +58,12 @@ SimPush parse_sim_push(const std::string& text, const std::string& field) {
                                              : number(item.substr(eq + 1), key == "start" ? 's' : '\0');
     if (key == "start" && x >= 0.0) {
       push.start_s = x;
-    } else if (key == "max" && kind == "ramp" && x > 0.0) {
+    } else if (key == "max" && kind != "constant" && x > 0.0) {
       push.max_v = x;
+    } else if (key == "stiffness" && kind == "hand" && x > 0.0) {
+      push.stiffness_v_per_rad = x;
+    } else if (key == "damping" && kind == "hand" && x >= 0.0) {
+      push.damping_v_s_per_rad = x;
     } else {
       throw Error(expected + ": bad item '" + item + "'", {}, 0, field);
     }

@@ -143,7 +143,7 @@ int VirtualDevice::write(const std::uint8_t* data, std::size_t len) noexcept {
   }
   const double v = entry.report.enable ? scaling_.command_v(entry.report.dac_counts) : 0.0;
   if (entry.decoded) last_v_ = v;
-  plant_.step(v, push_.at(plant_.time_s()));
+  plant_.step(v, push_.next(plant_.time_s(), plant_.theta(), plant_.theta_dot()));
   queue_report();
   return static_cast<int>(len);
 }

@@ -1,0 +1,163 @@
+#!/usr/bin/python3
+"""Helpers of scripts/closed-loop.sh (docs/compensation.md): merge omni_ctl recordings into one
+dataset, scale a model's effects, and the figures: tracking RMS per run and mode, hold
+peak-to-peak, free-motion push, gnuplot tracking plots. numpy only (Debian python3)."""
+import json
+import math
+import os
+import subprocess
+import sys
+
+import numpy as np
+
+
+def read_run(folder):
+    """The columns of folder/run.csv as a dict of numpy arrays, and dataset.json."""
+    with open(os.path.join(folder, "dataset.json")) as f:
+        meta = json.load(f)
+    path = os.path.join(folder, meta["runs"][0]["file"])
+    with open(path) as f:
+        names = f.readline().strip().split(",")
+    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    return {n: data[:, i] for i, n in enumerate(names)}, meta
+
+
+def merge(out, folders):
+    """One alphainv-dataset/1 folder `out` from single-run recordings (runs renamed)."""
+    os.makedirs(out, exist_ok=True)
+    merged = None
+    for i, folder in enumerate(folders):
+        with open(os.path.join(folder, "dataset.json")) as f:
+            meta = json.load(f)
+        run = meta["runs"][0]
+        name = "run%02d_%s.csv" % (i, os.path.basename(os.path.normpath(folder)))
+        with open(os.path.join(folder, run["file"])) as src, open(os.path.join(out, name), "w") as dst:
+            dst.write(src.read())
+        run["file"] = name
+        if merged is None:
+            merged = {k: v for k, v in meta.items() if k != "runs"}
+            merged["runs"] = []
+            merged["merged_from"] = []
+        merged["runs"].append(run)
+        merged["merged_from"].append(folder)
+    tmp = os.path.join(out, "dataset.json.part")
+    with open(tmp, "w") as f:
+        json.dump(merged, f, indent=1)
+    os.replace(tmp, os.path.join(out, "dataset.json"))
+
+
+def scale(model_in, factor, model_out):
+    """model.json with every effect's first (magnitude) parameter scaled by `factor`."""
+    with open(model_in) as f:
+        m = json.load(f)
+    magnitudes = ["coulomb_v", "offset_v", "gravity_v", "cogging_v", "deadzone_v"]
+    for entry in m.get("effects", []):  # [{"effect": NAME, "parameters": {...}}, ...]
+        for key, value in entry.get("parameters", {}).items():
+            if key in magnitudes and isinstance(value, (int, float)):
+                entry["parameters"][key] = value * factor
+    with open(model_out, "w") as f:
+        json.dump(m, f, indent=1)
+
+
+def tracking_rms(folder, settle_s):
+    cols, meta = read_run(folder)
+    keep = cols["t"] >= settle_s
+    e = cols["r"][keep] - cols["theta"][keep]
+    return math.sqrt(float(np.mean(e * e))), meta
+
+
+def tracking(eval_root, modes, names, settle_sine_s, settle_step_s):
+    """Table: tracking RMS |r − θ| per run (rows) and mode (columns), and the cut vs none."""
+    rows = []
+    for name in names:
+        settle = settle_step_s if name.startswith("step") else settle_sine_s
+        row = [name]
+        for mode in modes:
+            row.append(tracking_rms(os.path.join(eval_root, mode, name), settle)[0])
+        rows.append(row)
+    head = "| run | " + " | ".join("%s [mrad]" % m for m in modes) + " | " + " | ".join(
+        "cut %s" % m for m in modes[1:]) + " |"
+    print(head)
+    print("|" + "---|" * (1 + 2 * len(modes) - 1))
+    worst = {m: 1e9 for m in modes[1:]}
+    for row in rows:
+        base = row[1]
+        cuts = []
+        for j, m in enumerate(modes[1:]):
+            cut = 100.0 * (1.0 - row[2 + j] / base)
+            worst[m] = min(worst[m], cut)
+            cuts.append("%.0f %%" % cut)
+        print("| %s | " % row[0] + " | ".join("%.3f" % (1e3 * x) for x in row[1:]) + " | " +
+              " | ".join(cuts) + " |")
+    print("\nsmallest cut over the runs: " + ", ".join("%s %.0f %%" % (m, worst[m]) for m in modes[1:]))
+
+
+def hold(folder, counts_per_rad=1.0 / 1.5e-4, settle_s=1.0):
+    cols, _ = read_run(folder)
+    keep = cols["t"] >= settle_s
+    th = cols["theta"][keep]
+    pp = float(th.max() - th.min())
+    print("%s: %.1f s, theta peak-to-peak %.3g mrad = %.1f encoder steps; |v| max %.4f V" % (
+        folder, cols["t"][-1] - settle_s, 1e3 * pp, pp * counts_per_rad,
+        float(np.max(np.abs(cols["v"][keep])))))
+
+
+def push(folder, speed, stiffness, start_s, window_s):
+    """Free motion with a hand profile: mean push K·(θ_h − θ) while the hand moves at `speed`,
+    over the last `window_s` of the run, and the joint's mean speed there."""
+    cols, _ = read_run(folder)
+    t, th = cols["t"], cols["theta"]
+    # the hand takes hold where the joint is at start_s (device time ≈ run time + 1 tick)
+    k0 = int(np.searchsorted(t, start_s - 1e-3))
+    hand = th[k0] + speed * (t - t[k0])
+    keep = (t >= t[-1] - window_s) & (t >= t[k0])
+    d = stiffness * (hand[keep] - th[keep])
+    tt = t[keep]
+    mean_speed = float(np.polyfit(tt, th[keep], 1)[0])
+    print("%s: push at %.2f rad/s: mean %.4f V (min %.4f, max %.4f); joint speed %.3f rad/s" % (
+        folder, speed, float(np.mean(d)), float(d.min()), float(d.max()), mean_speed))
+    return float(np.mean(d))
+
+
+def plot(eval_root, modes, name, out_png, last_s=0.6):
+    """gnuplot: r and θ over the last `last_s` of run `name`, one line per mode."""
+    data_files = []
+    for mode in modes:
+        cols, _ = read_run(os.path.join(eval_root, mode, name))
+        keep = cols["t"] >= cols["t"][-1] - last_s
+        path = out_png + "." + mode + ".dat"
+        np.savetxt(path, np.column_stack([cols["t"][keep], cols["r"][keep], cols["theta"][keep]]))
+        data_files.append((mode, path))
+    script = ["set terminal pngcairo size 900,420 font ',10'", "set output '%s'" % out_png,
+              "set xlabel 't [s]'", "set ylabel 'theta [rad]'", "set key outside right",
+              "set title '%s: reference and measured angle by --compensate'" % name.replace("_", " ")]
+    parts = ["'%s' using 1:2 with lines lw 2 lc rgb 'black' title 'r'" % data_files[0][1]]
+    for mode, path in data_files:
+        parts.append("'%s' using 1:3 with lines lw 1.5 title '%s'" % (path, mode))
+    script.append("plot " + ", ".join(parts))
+    subprocess.run(["gnuplot"], input="\n".join(script), text=True, check=True)
+    for _, path in data_files:
+        os.remove(path)
+
+
+if __name__ == "__main__":
+    cmd = sys.argv[1]
+    if cmd == "merge":
+        merge(sys.argv[2], sys.argv[3:])
+    elif cmd == "scale":
+        scale(sys.argv[2], float(sys.argv[3]), sys.argv[4])
+    elif cmd == "tracking":
+        # tracking EVAL_ROOT "none effects ..." "names ..." SETTLE_SINE SETTLE_STEP
+        tracking(sys.argv[2], sys.argv[3].split(), sys.argv[4].split(), float(sys.argv[5]),
+                 float(sys.argv[6]))
+    elif cmd == "hold":
+        for folder in sys.argv[2:]:
+            hold(folder)
+    elif cmd == "push":
+        # push SPEED STIFFNESS START WINDOW FOLDER...
+        for folder in sys.argv[6:]:
+            push(folder, float(sys.argv[2]), float(sys.argv[3]), float(sys.argv[4]), float(sys.argv[5]))
+    elif cmd == "plot":
+        plot(sys.argv[2], sys.argv[3].split(), sys.argv[4], sys.argv[5])
+    else:
+        sys.exit("unknown command " + cmd)
