@@ -237,7 +237,7 @@ int run_diagnose(const DiagnoseCommandOptions& o) {
     }
   }
   if (o.json) {
-    std::printf("%s\n", result_json(res).dump().c_str());
+    std::printf("%s\n", result_json(res).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
   } else if (!o.quiet) {
     std::printf("omni_fit diagnose: %s\n", res.brief_report().c_str());
     for (const auto& f : res.before.findings) std::printf("  before: %s\n", f.c_str());

@@ -222,7 +222,7 @@ int run_fit(const FitCommandOptions& opt) {
     if (validation) {
       j["validation"] = validation_json((out / "model.json").string(), held_out_label, *validation);
     }
-    std::printf("%s\n", j.dump().c_str());
+    std::printf("%s\n", j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
   } else if (!opt.quiet) {
     std::printf("omni_fit fit: %zu runs, %zu poses; model %s, report %s\n", ds.runs.size(),
                 fit.poses.size(), (out / "model.json").c_str(), (out / "report.md").c_str());

@@ -250,7 +250,7 @@ int run_sweep(const SweepCommandOptions& o) {
     j["cases"] = jcases;
     j["right"] = right;
     j["total"] = cases.size();
-    std::printf("%s\n", j.dump().c_str());
+    std::printf("%s\n", j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
   }
   const bool all_good = right == static_cast<int>(cases.size()) && cut_ok == named_effect;
   return apps::exit_status(o.require && !all_good ? apps::ExitCode::kFailed : apps::ExitCode::kOk);

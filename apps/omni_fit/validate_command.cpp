@@ -142,7 +142,7 @@ int run_validate(const ValidateCommandOptions& o) {
     try {
       common::write_file_atomically(folder->path() / "report.md",
                                     validation_markdown(o.model_path, o.dataset_dir, r, "#"));
-      common::write_file_atomically(folder->path() / "validation.json", j.dump(2) + "\n");
+      common::write_file_atomically(folder->path() / "validation.json", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
       folder->commit();
     } catch (const std::exception& e) {
       std::fprintf(stderr, "omni_fit validate: %s\n", e.what());
@@ -150,7 +150,7 @@ int run_validate(const ValidateCommandOptions& o) {
     }
   }
   if (o.json) {
-    std::printf("%s\n", j.dump().c_str());
+    std::printf("%s\n", j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
   } else if (!o.quiet) {
     std::printf("%s", r.full_report().c_str());
   }

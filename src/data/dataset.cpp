@@ -463,7 +463,7 @@ class IndexReader {
     info.gamma2_deg = optional_number(obj, "gamma2_deg", parent);
     info.controller = base;
     apply_controller_keys(obj, parent, info.controller);
-    info.extra_json = obj.dump();
+    info.extra_json = obj.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
     return info;
   }
 
@@ -784,7 +784,7 @@ Dataset parse_dataset_index(std::string_view text, const fs::path& dir) {
   }
 
   root.erase("runs");
-  ds.extra_json = root.dump();
+  ds.extra_json = root.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
   return ds;
 }
 
@@ -936,7 +936,7 @@ std::string format_dataset_index(const Dataset& ds) {
 
   std::string text;
   try {
-    text = root.dump(1) + "\n";
+    text = root.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
   } catch (const json::exception& e) {  // e.g. a string that is not valid UTF-8
     throw Error(std::string("cannot write JSON: ") + e.what(), file);
   }

@@ -195,7 +195,7 @@ std::string format_model_file(const ModelFile& m) {
   j["effects"] = format_effects(m.effects);
   j["simulation"] = {{"loop_period_s", m.loop_period_s}};
   j["notes"] = m.notes;
-  return j.dump(2) + "\n";
+  return j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
 }
 
 ModelFile parse_model_file(const std::string& text, const std::string& file) {

@@ -223,7 +223,7 @@ Dataset RunRecorder::dataset(const RunResult& result, const rt::ControlLoopConfi
         {"v_comp", "the model-based compensation added to v_p before the clamp [V] "
                    "(omni_ctl --compensate; 0 without)"}}},
       {"timing", timing_json<nlohmann::json>(result.timing)}};
-  ds.extra_json = extra.dump();
+  ds.extra_json = extra.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
   return ds;
 }
 
@@ -247,7 +247,7 @@ void RunRecorder::write_index(const std::string& ended, const RunResult* result)
   if (result != nullptr && !result->non_finite_note.empty()) {
     extra["non_finite_cells"] = result->non_finite_note;
   }
-  ds.extra_json = extra.dump();
+  ds.extra_json = extra.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
   common::write_file_atomically(recording_->dir / "dataset.json", format_dataset_index(ds));
 }
 

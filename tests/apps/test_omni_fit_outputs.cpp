@@ -180,3 +180,17 @@ TEST_F(OmniFitOutputs, ADeclaredFrequencyTheDataDoNotHoldIsSkippedWithTheMeasure
 }
 
 }  // namespace
+
+// Finding 2 (omni_fit): a Latin-1 (not UTF-8) dataset path failed only after the whole work, with
+// nlohmann's type_error 316, when the path went into the JSON output. It is now written with the
+// byte replaced by U+FFFD: the work's output stands, and it is valid UTF-8.
+TEST_F(OmniFitOutputs, ANonUtf8DatasetPathDoesNotCostTheResult) {
+  const fs::path latin1 = dir_ / "caf\xe9";
+  fs::rename(unfittable_dataset(), latin1);
+  const ProcessResult r =
+      run_process({kFit, "validate", kPaperModel, latin1.string(), "--json", "-q"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("\"dataset\""), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("caf\xef\xbf\xbd"), std::string::npos) << r.out;  // U+FFFD
+  EXPECT_EQ(r.out.find("caf\xe9"), std::string::npos);
+}
