@@ -1,6 +1,7 @@
 // fit_dataset(), stage 7 (fit_stages.hpp): output-error identification of poses that have no
 // sine runs.
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include "alphainv/identify/fit_stages.hpp"
@@ -76,6 +77,18 @@ void fit_time_domain_poses(const Dataset& dataset, const std::vector<RunData>& d
           const double b = 1.0 / al.model.beta_n1[k];
           fit.alpha.beta_n1_se[k] = al.beta_tilde_se[k] / (b * b);
         }
+        // What the data say: breakpoints at quantiles of the commands' α lie inside the data
+        // (pinned); a coefficient is identifiable by its SE and correlations (TimeDomainAlphaFit).
+        // No local points: the sine branch's relative errors on them were not measured.
+        fit.alpha.alpha_data_min = 0.0;
+        fit.alpha.alpha_data_max = al.alpha_max;
+        for (std::size_t k = 0; k < al.model.n_breakpoints; ++k) {
+          fit.alpha.breakpoint_identifiable[k] = k > 0 && al.model.alpha[k] <= al.alpha_max;
+          fit.alpha.c_n1_identifiable[k] = al.c_identifiable[k];
+        }
+        fit.alpha.beta_n1_identifiable = al.beta_tilde_identifiable;
+        fit.alpha.c_rms_relative = fit.alpha.beta_rms_relative =
+            std::numeric_limits<double>::quiet_NaN();
         fit.alpha_source = "time domain (output error)";
         fit.notes.push_back(
             "α-model by output error: breakpoints at quantiles (0, then 50 % … 95 %) of the α of "

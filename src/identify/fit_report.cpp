@@ -135,9 +135,17 @@ void alpha_section(std::ostringstream& r, const DatasetFit& fit) {
       << " at α = " << fmt(a.beta_alpha[0]) << ", " << fmt(a.beta_n1[1]) << " ± "
       << fmt(fit.alpha.beta_n1_se[1], "%.2g")
       << (fit.alpha.beta_n1_identifiable[1] ? "" : " (**not identifiable**)")
-      << " at α = " << fmt(a.beta_alpha[1]) << ". RMS relative error on the "
-      << "data: C " << fmt(100 * fit.alpha.c_rms_relative, "%.2f") << " %, β̃ "
-      << fmt(100 * fit.alpha.beta_rms_relative, "%.2f") << " %.\n";
+      << " at α = " << fmt(a.beta_alpha[1]) << ".";
+    // Only what was measured: the relative errors on the local points (sine branch).
+    if (std::isfinite(fit.alpha.c_rms_relative) && std::isfinite(fit.alpha.beta_rms_relative)) {
+      r << " RMS relative error on the data: C " << fmt(100 * fit.alpha.c_rms_relative, "%.2f")
+        << " %, β̃ " << fmt(100 * fit.alpha.beta_rms_relative, "%.2f") << " %.";
+    } else {
+      r << " Identifiable: relative SE ≤ 10 % and no correlation above 0.95 with another "
+           "coefficient (output-error covariance; serially correlated residuals make SEs lower "
+           "bounds).";
+    }
+    r << "\n";
   }
 }
 
@@ -224,9 +232,12 @@ std::string DatasetFit::full_report() const {
     out += "  α-model (" + alpha_source + "): N = " + std::to_string(a.n_breakpoints) +
            ", α_n = " + list_text(a.alpha, a.n_breakpoints) + "; C_n1 = " +
            list_text(a.c_n1, a.n_breakpoints) + "; β̃_n1 = " + list_text(a.beta_n1, 2) +
-           " at α = " + list_text(a.beta_alpha, 2) + "; RMS relative error C " +
-           fmt(100 * alpha.c_rms_relative, "%.2f") + " %, β̃ " +
-           fmt(100 * alpha.beta_rms_relative, "%.2f") + " %\n";
+           " at α = " + list_text(a.beta_alpha, 2) +
+           (std::isfinite(alpha.c_rms_relative) && std::isfinite(alpha.beta_rms_relative)
+                ? "; RMS relative error C " + fmt(100 * alpha.c_rms_relative, "%.2f") + " %, β̃ " +
+                      fmt(100 * alpha.beta_rms_relative, "%.2f") + " %"
+                : std::string("; no local points to measure relative errors on")) +
+           "\n";
   } else {
     out += "  α-model: not fitted" + (alpha.message.empty() ? "" : ": " + alpha.message) + "\n";
   }

@@ -296,6 +296,14 @@ void add_standard_errors(const OutputErrorProblem& problem, const OutputErrorOpt
         const Eigen::MatrixXd cov = (raw_ss / dof) * a_inv * b_mat * a_inv;
         for (Eigen::Index j = 0; j < npi; ++j)
           res.standard_errors[static_cast<std::size_t>(j)] = std::sqrt(std::max(0.0, cov(j, j)));
+        res.correlations.assign(np * np, std::numeric_limits<double>::quiet_NaN());
+        for (Eigen::Index i = 0; i < npi; ++i) {
+          for (Eigen::Index j = 0; j < npi; ++j) {
+            const double d = std::sqrt(cov(i, i) * cov(j, j));
+            if (d > 0.0)
+              res.correlations[static_cast<std::size_t>(i * npi + j)] = cov(i, j) / d;
+          }
+        }
       }
     }
   }

@@ -17,6 +17,11 @@ namespace alphainv {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+/// An estimate is identifiable with a relative SE up to this (the sine branch's threshold) …
+constexpr double kIdentifiableRelativeSe = 0.10;
+/// … and no correlation with another estimate above this (beyond it the data fix only a
+/// combination of the two).
+constexpr double kIdentifiableCorrelation = 0.95;
 
 /// The output-error problem of `runs` with the model built by `model`.
 OutputErrorProblem make_problem(const std::vector<TimeDomainRun>& runs,
@@ -243,6 +248,23 @@ TimeDomainAlphaFit fit_alpha_time_domain(const std::vector<TimeDomainRun>& runs,
   }
   out.model.beta_n1 = {1.0 / r.values[n], 1.0 / r.values[n + 1]};
   out.beta_tilde_se = {r.standard_errors[n], r.standard_errors[n + 1]};
+  // Identifiability from the SEs and the correlations of the estimates (the parameters are C_0 …
+  // C_{N−1}, β̃_0, β̃_1 in that order).
+  const std::size_t np = n + 2;
+  for (std::size_t j = 0; j < np; ++j) {
+    double worst = std::numeric_limits<double>::quiet_NaN();
+    if (r.correlations.size() == np * np) {
+      worst = 0.0;
+      for (std::size_t i = 0; i < np; ++i) {
+        if (i != j) worst = std::max(worst, std::abs(r.correlations[j * np + i]));
+      }
+    }
+    out.max_abs_correlation[j] = worst;
+    const double rel = r.standard_errors[j] / std::abs(r.values[j]);
+    const bool ok = rel <= kIdentifiableRelativeSe && worst <= kIdentifiableCorrelation;
+    if (j < n) out.c_identifiable[j] = ok;
+    else out.beta_tilde_identifiable[j - n] = ok;
+  }
   out.rms = r.rms;
   out.ok = out.model.valid();
   out.message = out.ok ? r.message : "the fitted α-model is not valid";

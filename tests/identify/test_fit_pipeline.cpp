@@ -178,6 +178,15 @@ TEST(FitPipeline, NoSineRunsFitsInTheTimeDomain) {
   EXPECT_LT(fit.alpha_errors.rel_position_error_median, 0.05);
   EXPECT_LT(fit.alpha_errors.rel_position_error_median,
             0.5 * fit.linear_errors.rel_position_error_median);
+  // Honest reports (#14): identifiability from the output-error SEs and correlations, and no
+  // relative error on local points that do not exist.
+  EXPECT_TRUE(fit.alpha.c_n1_identifiable[0]) << fit.full_report();
+  EXPECT_TRUE(fit.alpha.breakpoint_identifiable[1]);
+  EXPECT_TRUE(std::isnan(fit.alpha.c_rms_relative));
+  const std::string report = fit.full_report();
+  EXPECT_EQ(report.find("RMS relative error C 0.00 %"), std::string::npos) << report;
+  EXPECT_NE(report.find("no local points to measure relative errors on"), std::string::npos)
+      << report;
 }
 
 bool has_note(const DatasetFit& f, const char* what) {

@@ -131,6 +131,13 @@ TEST(TimeDomainFit, AlphaModelFromTimeDomainRunsMatchesTheTruthAlongTheData) {
     const double truth = p.alpha_model.damping(a, inertia);
     EXPECT_NEAR(al.model.damping(a, 1.0), truth, 0.15 * truth) << "alpha " << a;
   }
+  // Identifiability from the SEs and correlations: C_0 (most data) is; every estimate has a
+  // correlation with another in [0, 1].
+  EXPECT_TRUE(al.c_identifiable[0]);
+  for (std::size_t k = 0; k < al.model.n_breakpoints + 2; ++k) {
+    EXPECT_GE(al.max_abs_correlation[k], 0.0) << k;
+    EXPECT_LE(al.max_abs_correlation[k], 1.0 + 1e-12) << k;
+  }
   EXPECT_TRUE(al.usable());
   EXPECT_EQ(al.brief_report(),
             "time-domain α fit: usable, N = 4 breakpoints up to α = 11.23 (the commands reach "

@@ -72,6 +72,8 @@ struct OutputErrorResult {
   std::vector<std::string> parameter_names;  ///< OutputErrorProblem::parameters' names
   std::vector<double> values;          ///< fitted parameters
   std::vector<double> standard_errors; ///< from (JᵀJ)⁻¹σ² at the solution (NaN: not available)
+  /// Correlations of the estimates from the same covariance, row-major P×P (empty: not available).
+  std::vector<double> correlations;
   double rms = std::numeric_limits<double>::quiet_NaN();  ///< weighted RMS of θ − θ_sim [position unit]
   std::vector<double> run_rms;         ///< RMS of θ − θ_sim per run over all samples
   int iterations = 0;                  ///< summed over starts

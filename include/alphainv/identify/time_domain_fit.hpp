@@ -78,6 +78,13 @@ struct TimeDomainAlphaFit {
   std::array<double, 2> beta_tilde_se{};       ///< standard errors of β̃_0, β̃_1
   double rms = std::numeric_limits<double>::quiet_NaN();  ///< RMS of θ − θ_sim [position unit]
   double alpha_max = 0.0;  ///< largest α of the runs' commands (the data's α range ends there)
+  /// Largest |correlation| of each estimate (C_0 … C_{N−1}, then β̃_0, β̃_1 at N, N+1) with any
+  /// other (NaN: not available).
+  std::array<double, kMaxBreakpoints + 2> max_abs_correlation{};
+  /// Identifiable from the data: relative SE ≤ 10 % and no correlation above 0.95 with another
+  /// estimate (C_0 … C_{N−1}; β̃_0, β̃_1).
+  std::array<bool, kMaxBreakpoints> c_identifiable{};
+  std::array<bool, 2> beta_tilde_identifiable{};
 
   /// True when the α-model was fitted and is valid (`ok`).
   bool usable() const { return ok; }
