@@ -50,24 +50,32 @@ bool is_periodic_kind(const RunInfo& run) {
 bool is_step_kind(const RunInfo& run) { return run.kind == "square" || run.kind == "step"; }
 
 /// Why a sine run's declared freq_hz is not what its reference holds, or empty (issue #13): the
-/// sine (15) fitted to r at that frequency must explain at least half of r's variance in the
-/// window `win` `fr` was fitted on (a sine at its own frequency: all of it; at 10 times it: ~0).
+/// sine (15) fitted to r at that frequency (`fr`, on the steady-state window) must explain at
+/// least half of r's variance there (a sine at its own frequency: all of it; at 10 times it: ~0).
 /// The note gives the frequency at which r crosses its mean over the run, the data's own.
-std::string declared_frequency_mismatch(const RunInfo& run, const RunData& d, const IndexRange& win,
-                                        const SineFit& fr) {
+std::string declared_frequency_mismatch(const RunInfo& run, const RunData& d, const SineFit& fr) {
   const double fitted = 0.5 * fr.amplitude() * fr.amplitude();
   const double explained = fitted / (fitted + fr.rms_residual * fr.rms_residual);
   if (explained >= 0.5) return {};
-  std::size_t crossings = 0;  // over the whole run: the window may hold few of r's periods
+  // Half periods between the first and the last crossing, over the whole run (the window may hold
+  // few of r's periods).
+  std::size_t crossings = 0;
+  double first_s = 0.0, last_s = 0.0;
   for (std::size_t k = 1; k < d.size(); ++k) {
-    crossings += (d.r[k - 1] - fr.offset < 0.0) != (d.r[k] - fr.offset < 0.0) ? 1 : 0;
+    if ((d.r[k - 1] - fr.offset < 0.0) == (d.r[k] - fr.offset < 0.0)) continue;
+    if (crossings++ == 0) first_s = d.t[k];
+    last_s = d.t[k];
   }
-  const double span_s = d.t.back() - d.t.front();
+  const double span_s = crossings > 1 ? (last_s - first_s) * static_cast<double>(crossings) /
+                                            static_cast<double>(crossings - 1)
+                                      : 0.0;
+  char measured[128];
+  std::snprintf(measured, sizeof measured, "explains %.3g %% of r's variance; r crosses its mean "
+                "at about %.3g Hz", 100.0 * explained,
+                span_s > 0.0 ? 0.5 * static_cast<double>(crossings) / span_s : kNaN);
   return "run " + run.file + ": declared freq_hz " + format_g(*run.freq_hz) +
-         " is not the reference's frequency (a sine at it explains " +
-         format_g(100.0 * explained) + " % of r's variance; r crosses its mean at about " +
-         format_g(span_s > 0.0 ? 0.5 * static_cast<double>(crossings) / span_s : kNaN) +
-         " Hz): skipped; correct freq_hz in dataset.json";
+         " is not the reference's frequency (a sine at it " + measured +
+         "): skipped; correct freq_hz in dataset.json";
 }
 
 /// (27)-(29) identify I from β̃_linear = 1/I, but the α-model (42) says β̃ = 1/(β̃_n1(α)·I): when the
@@ -425,7 +433,7 @@ void fit_local_linear_points(const Dataset& dataset, const std::vector<RunData>&
     const SineFit fr = fit_sine(d.t.data() + win.begin, d.r.data() + win.begin, win.size(), w);
     const SineFit ft = fit_sine(d.t.data() + win.begin, d.theta.data() + win.begin, win.size(), w);
     if (!fr.valid || !ft.valid || !(fr.amplitude() > 0.0)) continue;
-    if (const std::string why = declared_frequency_mismatch(run, d, win, fr); !why.empty()) {
+    if (const std::string why = declared_frequency_mismatch(run, d, fr); !why.empty()) {
       fit.notes.push_back(why);
       continue;
     }
