@@ -1034,13 +1034,13 @@ void try_refinements(const CandidateFitter& fitter, const RoundStart& start,
       return c.effect == parent && c.ok && c.cross_validated;
     });
     if (p == candidates.end()) continue;  // the parent is not among the two best
-    const CandidateSearch s =
-        search_candidate(kind, fitter.prepared(), fitter.model(), start, reid, opt);
-    CandidateScore c = s.searched
-                           ? fitter.fit(kind, s.effects, fitter.prepared().unit_scales, s.alpha,
-                                        true, true, nullptr)
-                           : fitter.fit(kind, s.effects, s.start_scales, s.alpha, false, true,
-                                        nullptr);
+    // Started from its equation-error start with the parent's α-model and coefficient factors
+    // (no search with re-identification: the parent's has found the valley; it would cost 3× a
+    // candidate's time).
+    (void)reid;
+    Effects e = fitter.model().effects;
+    equation_error_start(kind, start.torque_residual, fitter.prepared().scales, e);
+    CandidateScore c = fitter.fit(kind, e, p->scales, p->alpha, true, true, nullptr);
     if (c.ok && c.cross_validated && !beats(c, *p, 0.5 * opt.significance)) {
       // Not better than the simpler form by a margin in both folds: its extra parameters have
       // not earned their place (it cannot be chosen over it).
