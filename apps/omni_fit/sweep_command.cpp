@@ -79,7 +79,7 @@ void apply(const SweepCase& c, Effects& e) {
   e.*(spec.parameters[0].member) = hidden_magnitude(c);
   const std::vector<const EffectParameter*> others = swept_others(c.effect);
   for (std::size_t j = 0; j < others.size() && j < c.others.size(); ++j)
-    e.*(others[j]->member) = c.others[j];
+    e.*(others[j]->member) = c.others[j] * (others[j]->sweep_times_first ? hidden_magnitude(c) : 1.0);
 }
 
 /// Two magnitudes per effect: clearly visible, and about half of that (EffectSpec).

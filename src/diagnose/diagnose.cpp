@@ -694,8 +694,12 @@ RoundModel initial_model(const std::vector<DiagnoseRun>& runs_in, const Prepared
   m.effects = runs_in.front().model.effects;
   m.scales = prepared.unit_scales;
   // The Coulomb term's smoothing: 1 % of the RMS velocity (a sharp switch on the data's scale).
-  if (!(m.effects.coulomb_v > 0.0))
-    m.effects.coulomb_smoothing_rad_s = 0.01 * prepared.scales.theta_dot_rms;
+  // (and of the other friction terms, each its own)
+  const double eps = 0.01 * prepared.scales.theta_dot_rms;
+  if (!effect_active(m.effects, EffectKind::kCoulombFriction)) m.effects.coulomb_smoothing_rad_s = eps;
+  if (!effect_active(m.effects, EffectKind::kStribeckFriction)) m.effects.stribeck_smoothing_rad_s = eps;
+  if (!effect_active(m.effects, EffectKind::kAsymmetricFriction)) m.effects.asymmetric_smoothing_rad_s = eps;
+  if (!effect_active(m.effects, EffectKind::kPositionDependentFriction)) m.effects.position_smoothing_rad_s = eps;
   for (EffectKind k : kAllEffectKinds) {
     if (effect_active(m.effects, k)) m.named.push_back(k);
   }
@@ -1023,6 +1027,35 @@ void cross_validate_lowest(const CandidateFitter& fitter, std::vector<CandidateS
   for (std::size_t k : order) fitter.cross_validate(candidates[k], pending[k].blocks, pending[k].values);
 }
 
+void try_refinements(const CandidateFitter& fitter, const RoundStart& start,
+                     const Reidentifier& reid, const std::vector<std::size_t>& refinements,
+                     std::vector<CandidateScore>& candidates) {
+  const DiagnoseOptions& opt = fitter.options();
+  for (std::size_t at : refinements) {
+    const EffectKind kind = candidates[at].effect;
+    const EffectKind parent = effect_spec(kind).refines;
+    const auto p = std::find_if(candidates.begin(), candidates.end(), [&](const CandidateScore& c) {
+      return c.effect == parent && c.ok && c.cross_validated;
+    });
+    if (p == candidates.end()) continue;  // the parent is not among the two best
+    // Started from its equation-error start with the parent's α-model and coefficient factors
+    // (no search with re-identification: the parent's has found the valley; it would cost 3× a
+    // candidate's time).
+    (void)reid;
+    Effects e = fitter.model().effects;
+    equation_error_start(kind, start.torque_residual, fitter.prepared().scales, e);
+    CandidateScore c = fitter.fit(kind, e, p->scales, p->alpha, true, true, nullptr);
+    if (c.ok && c.cross_validated && !beats(c, *p, 0.5 * opt.significance)) {
+      // Not better than the simpler form by a margin in both folds: its extra parameters have
+      // not earned their place (it cannot be chosen over it).
+      c.message = std::string("not below (1 − significance/2) × the score of ") +
+                  effect_name(parent) + " in both folds: its extra parameters do not earn their place";
+      c.cross_validated = false;
+    }
+    candidates[at] = std::move(c);
+  }
+}
+
 bool beats(const CandidateScore& c, const CandidateScore& ref, double significance) {
   const double keep = 1.0 - significance;
   return c.score <= keep * ref.score && c.fold_scores[0] <= keep * ref.fold_scores[0] &&
@@ -1178,11 +1211,19 @@ DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const Prep
   // Candidates fitted but not yet cross-validated, by catalogue position.
   std::vector<PendingCrossValidation> pending(catalogue.size());
   std::vector<DeferredFit> deferred;  // searched candidates waiting for their output-error fit
+  std::vector<std::size_t> refinements;  // positions of the generalisations (EffectSpec::refines)
   for (EffectKind kind : catalogue) {
     CandidateScore cand;
     cand.effect = kind;
     if (std::find(model.named.begin(), model.named.end(), kind) != model.named.end()) {
       cand.message = "already in the model";
+      rd.candidates.push_back(cand);
+      continue;
+    }
+    if (effect_spec(kind).refines != EffectKind::kNone) {
+      cand.message = std::string("tried only when ") + effect_name(effect_spec(kind).refines) +
+                     " is among the two best";
+      refinements.push_back(rd.candidates.size());
       rd.candidates.push_back(cand);
       continue;
     }
@@ -1210,6 +1251,7 @@ DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const Prep
   }
   fit_searched(fitter, deferred, rd.candidates, pending);
   cross_validate_lowest(fitter, rd.candidates, pending);
+  try_refinements(fitter, start, reid, refinements, rd.candidates);
   const Choice choice = choose_winner(fitter, reid, rd);
   if (!choice.none_fitted) {
     *failure = "the model without a new effect could not be fitted: " +

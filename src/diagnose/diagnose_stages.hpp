@@ -42,7 +42,7 @@ struct DataScales {
   double kp = 1.0;  ///< the first run's proportional gain [command unit / position unit]
 
   /// What the effect table's search rules are sized by (EffectSpec).
-  EffectScales effect() const { return {v_max, kp, theta_min, theta_max}; }
+  EffectScales effect() const { return {v_max, kp, theta_min, theta_max, theta_dot_rms}; }
 };
 
 /// One effect kind's parameters as an output-error parameter block: names, starts, bounds.
@@ -266,6 +266,14 @@ void fit_searched(const CandidateFitter& fitter, const std::vector<DeferredFit>&
 /// named: the winner must beat `none` by a margin on data it was not fitted on).
 void cross_validate_lowest(const CandidateFitter& fitter, std::vector<CandidateScore>& candidates,
                            const std::vector<PendingCrossValidation>& pending);
+
+/// Refinements: each candidate at `refinements` (a generalisation, EffectSpec::refines) is
+/// searched, fitted and cross-validated only when the effect it generalises was cross-validated
+/// (among the two lowest training RMS); it stays a contender only when it beats that one by
+/// (1 − significance/2) in its score and both folds (else it is marked not cross-validated).
+void try_refinements(const CandidateFitter& fitter, const RoundStart& start,
+                     const Reidentifier& reid, const std::vector<std::size_t>& refinements,
+                     std::vector<CandidateScore>& candidates);
 
 /// `c` is below (1 − significance) × `ref` in its score and in both folds.
 bool beats(const CandidateScore& c, const CandidateScore& ref, double significance);

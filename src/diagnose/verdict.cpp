@@ -193,13 +193,17 @@ VerdictReport judge_residual(const std::vector<ResidualSeries>& runs, const Nois
           for (const auto& p : parts) windowed[i] -= p[i - first];
         }
         const std::string run = "run " + s.name + " (" + num(*s.freq_hz, "%g") + " Hz, steady state)";
-        if (h.repeating > o.ratio * fl) {
-          std::string what = run + ": error repeating every cycle: at the fundamental " +
-                             num(h.fundamental) + ", harmonics 2–" + std::to_string(o.harmonics) +
-                             " " + num(h.harmonics) +
+        // What the α-model cannot make: harmonics of the fundamental and a constant (its
+        // error at the fundamental is a gain and phase, which C(α) and β̃(α) represent: said,
+        // not judged).
+        const double shape = std::hypot(h.harmonics, h.mean);
+        if (shape > o.ratio * fl) {
+          std::string what = run + ": error repeating every cycle: harmonics 2–" +
+                             std::to_string(o.harmonics) + " " + num(h.harmonics) +
                              (h.strongest > 0 ? " (strongest " + std::to_string(h.strongest) + ")" : "") +
-                             ", constant " + num(h.mean);
-          add(what, h.repeating);
+                             ", constant " + num(h.mean) + " (and at the fundamental " +
+                             num(h.fundamental) + ")";
+          add(what, shape);
         }
       }
     }

@@ -73,6 +73,11 @@ TEST(Verdict, AHarmonicOfTheFundamentalIsStructureAndLocated) {
   EXPECT_NE(v.unexplained[0].where.find("(strongest 3)"), std::string::npos) << v.unexplained[0].where;
   EXPECT_NEAR(v.unexplained[0].ratio, 7.07, 0.5);
   EXPECT_STREQ(verdict_name(v.verdict), "structure_remains");
+  // A gain and phase error at the fundamental alone (what C(α), β̃(α) represent) is not judged.
+  ResidualSeries g = run("sine", 2.0, 1e-4, 10);
+  for (std::size_t k = 0; k < g.t.size(); ++k) g.residual[k] += 3e-3 * std::sin(kTwoPi * 2.0 * g.t[k] + 0.3);
+  const std::vector<ResidualSeries> gain = {g, run("sine", 5.0, 1e-4, 11)};
+  EXPECT_EQ(judge_residual(gain, estimate_noise_floor(gain)).verdict, ResidualVerdict::kExplained);
 }
 
 TEST(Verdict, APulseIsLocatedInTime) {

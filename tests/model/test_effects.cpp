@@ -81,7 +81,7 @@ TEST(Effects, ParametersPointAtTheirMembers) {
   EXPECT_EQ(e.cogging_period_rad, 0.25);
   EXPECT_EQ(e.delay_s, 0.25);
   EXPECT_EQ(e.saturation_v, 0.25);
-  EXPECT_EQ(active_effects(e).size(), 7u);
+  EXPECT_EQ(active_effects(e).size(), kEffectKindCount - 1);
   EXPECT_TRUE(effect_parameters(EffectKind::kNone).empty());
   EXPECT_EQ(effect_parameters(EffectKind::kCogging).size(), 3u);
 }
@@ -93,10 +93,82 @@ TEST(Effects, ModellingChoicesAreListedOnlyWhenAsked) {
   EXPECT_EQ(std::string(with[0].name), "coulomb_v");
   EXPECT_EQ(with[1].member, &Effects::coulomb_smoothing_rad_s);
   EXPECT_EQ(effect_parameters(EffectKind::kCoulombFriction).size(), 1u);
+  // Each friction term has its own smoothing ε; no other effect has a modelling choice.
+  const std::set<EffectKind> with_smoothing = {
+      EffectKind::kCoulombFriction, EffectKind::kStribeckFriction, EffectKind::kAsymmetricFriction,
+      EffectKind::kPositionDependentFriction};
   for (EffectKind k : kAllEffectKinds) {
-    if (k == EffectKind::kCoulombFriction) continue;
-    EXPECT_EQ(effect_parameters(k, true).size(), effect_parameters(k).size()) << effect_name(k);
+    EXPECT_EQ(effect_parameters(k, true).size(),
+              effect_parameters(k).size() + (with_smoothing.count(k) ? 1u : 0u))
+        << effect_name(k);
   }
+}
+
+TEST(Effects, TheKindsAreCountedByTheEnumSentinel) {
+  EXPECT_EQ(kEffectKindCount, 11u);
+  EXPECT_EQ(kAllEffectKinds.size(), kEffectCatalogue.size());
+  for (std::size_t k = 0; k < kEffectKindCount; ++k) {
+    EXPECT_EQ(kAllEffectKinds[k], static_cast<EffectKind>(k));
+    EXPECT_EQ(kEffectCatalogue[k].kind, kAllEffectKinds[k]) << k;  // the table in enum order
+  }
+}
+
+TEST(Effects, FrictionGeneralisationsMatchTheirFormulas) {
+  const double eps = 0.01, th = 0.05;
+  // Stribeck: Fc + (Fs − Fc)·exp(−(θ̇/v_s)²) times −tanh(θ̇/ε).
+  Effects s;
+  s.stribeck_coulomb_v = 0.02;
+  s.stribeck_breakaway_v = 0.05;
+  s.stribeck_velocity_rad_s = 0.1;
+  s.stribeck_smoothing_rad_s = eps;
+  for (double v : {-1.0, -0.1, 0.003, 0.05, 0.2, 2.0}) {
+    const double expected = -std::tanh(v / eps) * (0.02 + 0.03 * std::exp(-(v / 0.1) * (v / 0.1)));
+    EXPECT_NEAR(effect_torque(s, th, v), expected, 1e-15) << v;
+  }
+  EXPECT_NEAR(effect_torque(s, th, 0.05), -std::tanh(5.0) * (0.02 + 0.03 * std::exp(-0.25)), 1e-15);
+  // Breakaway level just above ε, the sliding level far above v_s.
+  EXPECT_NEAR(effect_torque(s, th, 0.05), -0.0434, 1e-3);
+  EXPECT_NEAR(effect_torque(s, th, -3.0), 0.02, 1e-12);
+  // Stribeck with Fs = Fc is Coulomb friction.
+  Effects sc = s, c;
+  sc.stribeck_breakaway_v = 0.02;
+  c.coulomb_v = 0.02;
+  c.coulomb_smoothing_rad_s = eps;
+  for (double v : {-0.5, -0.02, 0.001, 0.3}) EXPECT_NEAR(effect_torque(sc, th, v), effect_torque(c, th, v), 1e-15);
+
+  // Asymmetric: Fc⁺ forward, Fc⁻ backward, and half the viscous difference as Δb/2·|θ̇|.
+  Effects a;
+  a.asymmetric_coulomb_pos_v = 0.03;
+  a.asymmetric_coulomb_neg_v = 0.01;
+  a.asymmetric_viscous_diff_v_s = 0.004;
+  a.asymmetric_smoothing_rad_s = eps;
+  EXPECT_NEAR(effect_torque(a, th, 2.0), -0.03 - 0.5 * 0.004 * 2.0, 1e-12);
+  EXPECT_NEAR(effect_torque(a, th, -2.0), 0.01 - 0.5 * 0.004 * 2.0, 1e-12);
+  const double sg = std::tanh(0.004 / eps);
+  EXPECT_NEAR(effect_torque(a, th, 0.004),
+              -sg * (0.03 * 0.5 * (1 + sg) + 0.01 * 0.5 * (1 - sg)) - 0.5 * 0.004 * 0.004 * sg, 1e-15);
+
+  // Position-dependent: the level Fc0 + s·θ, not below 0.
+  Effects p;
+  p.position_coulomb_v = 0.02;
+  p.position_slope_v_per_rad = 0.14;
+  p.position_smoothing_rad_s = eps;
+  EXPECT_NEAR(effect_torque(p, 0.07, 1.0), -(0.02 + 0.14 * 0.07), 1e-12);
+  EXPECT_NEAR(effect_torque(p, -0.07, -1.0), 0.02 - 0.14 * 0.07, 1e-12);
+  EXPECT_EQ(effect_torque(p, -0.5, 1.0), 0.0);  // the level clamped at 0
+  EXPECT_EQ(effect_spec(EffectKind::kStribeckFriction).refines, EffectKind::kCoulombFriction);
+  EXPECT_EQ(effect_spec(EffectKind::kAsymmetricFriction).refines, EffectKind::kCoulombFriction);
+  EXPECT_EQ(effect_spec(EffectKind::kPositionDependentFriction).refines, EffectKind::kCoulombFriction);
+  EXPECT_EQ(effect_spec(EffectKind::kCoulombFriction).refines, EffectKind::kNone);
+  // Each by its table name (what omni_gen --effect and model.json read).
+  Effects from_spec;
+  apply_effect_spec("stribeck_friction:stribeck_coulomb_v=0.02,stribeck_breakaway_v=0.05,"
+                    "stribeck_velocity_rad_s=0.1",
+                    from_spec);
+  EXPECT_EQ(active_effects(from_spec), std::vector<EffectKind>{EffectKind::kStribeckFriction});
+  EXPECT_EQ(from_spec.stribeck_breakaway_v, 0.05);
+  apply_effect_spec("position_dependent_friction=0.02", from_spec);
+  EXPECT_EQ(from_spec.position_coulomb_v, 0.02);
 }
 
 TEST(Effects, TextNamesTheActiveEffectsWithTheirParameters) {
@@ -171,8 +243,9 @@ TEST(EffectTable, EntriesAreInKindOrderWithUniqueNamesAndMembers) {
     EXPECT_TRUE(s.active(e)) << s.name;
     EXPECT_EQ(active_effects(e), std::vector<EffectKind>{s.kind});
   }
-  // 11 members of Effects, each in exactly one entry.
-  EXPECT_EQ(members.size(), 11u);
+  // 22 members of Effects, each in exactly one entry.
+  EXPECT_EQ(members.size(), 22u);
+  EXPECT_EQ(sizeof(Effects), 22 * sizeof(double));
 }
 
 TEST(EffectTable, SearchBoundsGridsAndStepsFollowTheDataScales) {

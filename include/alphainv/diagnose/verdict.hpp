@@ -15,7 +15,10 @@
 /// Judged. Run starts and the 1 s after reference jumps are transients, where the α-model's
 /// low-α end is least certain; they are reported (transient RMS) but not judged. Judged are:
 /// - each sine run's steady state (the last half of the run, whole cycles): its repeating part
-///   (constant, fundamental, harmonics 2…10) against the floor;
+///   that the α-model cannot make (harmonics 2…10 of the reference frequency and a constant)
+///   against the floor. Its error AT the fundamental is a gain and phase, which the α-model's
+///   C(α), β̃(α) represent (near a resonance it is large on effect-free data): said in the
+///   words, not judged;
 /// - each other run's samples outside transients, against the floor;
 /// - time windows (0.2 s) of every run outside transients whose RMS (sine runs: of the part that
 ///   does not repeat) is more than 4× the run's median window and 5× the floor (pulses, steps);

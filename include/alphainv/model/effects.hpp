@@ -7,6 +7,11 @@
 ///       + d0                      offset_torque
 ///       − g·sin(θ + θ0)           gravity
 ///       + a·sin(2π·θ/p + φ)       cogging, periodic in θ,
+///       − σ(θ̇)·(Fc + (Fs − Fc)·exp(−(θ̇/v_s)²))        stribeck_friction
+///       − σ(θ̇)·(Fc⁺·h⁺ + Fc⁻·h⁻) − (Δb/2)·θ̇·σ(θ̇)       asymmetric_friction
+///       − σ(θ̇)·max(0, Fc0 + s·θ)                         position_dependent_friction
+/// with σ(θ̇) = tanh(θ̇/ε) (each friction effect has its own smoothing ε, a modelling choice),
+/// h⁺ = (1 + σ)/2, h⁻ = (1 − σ)/2 (the direction weights), and,
 /// with τ the command delay (time_delay), Z the deadzone Z(v) = sign(v)·max(|v| − d, 0) (deadzone)
 /// and S the clamp to ±v_max (saturation). Torques are in command units. Every effect is off at its
 /// default. The virtual plant, the simulator and the 1 kHz online model all use these functions.
@@ -48,6 +53,19 @@ struct Effects {
   double delay_s = 0.0;  ///< command transport delay τ [s], 0 ≤ τ ≤ kMaxDelayS
   double saturation_v = std::numeric_limits<double>::infinity();  ///< amplifier limit v_max > 0
   double deadzone_v = 0.0;  ///< amplifier deadzone half-width d [command unit], ≥ 0
+  double stribeck_coulomb_v = 0.0;     ///< Stribeck: Coulomb (sliding) level Fc [command unit], ≥ 0
+  double stribeck_breakaway_v = 0.0;   ///< Stribeck: breakaway level Fs at θ̇ → 0 [command unit], ≥ 0
+  double stribeck_velocity_rad_s = 0.1;  ///< Stribeck velocity v_s [position unit/s], > 0
+  double stribeck_smoothing_rad_s = 1e-3;  ///< its tanh smoothing ε [position unit/s], > 0
+  double asymmetric_coulomb_pos_v = 0.0;  ///< Coulomb level moving forward Fc⁺ [command unit], ≥ 0
+  double asymmetric_coulomb_neg_v = 0.0;  ///< Coulomb level moving backward Fc⁻ [command unit], ≥ 0
+  /// Viscous level forward minus backward Δb = b⁺ − b⁻ [command unit/(position unit/s)]; their
+  /// mean is the α-model's damping C (not identifiable apart from it)
+  double asymmetric_viscous_diff_v_s = 0.0;
+  double asymmetric_smoothing_rad_s = 1e-3;  ///< its tanh smoothing ε [position unit/s], > 0
+  double position_coulomb_v = 0.0;  ///< Coulomb level at θ = 0, Fc0 [command unit]
+  double position_slope_v_per_rad = 0.0;  ///< its slope along θ, s [command unit/position unit]
+  double position_smoothing_rad_s = 1e-3;  ///< its tanh smoothing ε [position unit/s], > 0
 
   /// Longest delay accepted [s] (delay lines are sized from it).
   static constexpr double kMaxDelayS = 1.0;
@@ -61,6 +79,22 @@ inline double effect_torque(const Effects& e, double theta, double theta_dot) no
   if (e.gravity_v != 0.0) n -= e.gravity_v * std::sin(theta + e.gravity_theta0_rad);
   if (e.cogging_v != 0.0) {
     n += e.cogging_v * std::sin(kTwoPi * theta / e.cogging_period_rad + e.cogging_phase_rad);
+  }
+  if (e.stribeck_coulomb_v > 0.0 || e.stribeck_breakaway_v > 0.0) {
+    const double x = theta_dot / e.stribeck_velocity_rad_s;
+    n -= std::tanh(theta_dot / e.stribeck_smoothing_rad_s) *
+         (e.stribeck_coulomb_v + (e.stribeck_breakaway_v - e.stribeck_coulomb_v) * std::exp(-x * x));
+  }
+  if (e.asymmetric_coulomb_pos_v > 0.0 || e.asymmetric_coulomb_neg_v > 0.0 ||
+      e.asymmetric_viscous_diff_v_s != 0.0) {
+    const double sg = std::tanh(theta_dot / e.asymmetric_smoothing_rad_s);
+    n -= sg * (e.asymmetric_coulomb_pos_v * 0.5 * (1.0 + sg) +
+               e.asymmetric_coulomb_neg_v * 0.5 * (1.0 - sg)) +
+         0.5 * e.asymmetric_viscous_diff_v_s * theta_dot * sg;
+  }
+  if (e.position_coulomb_v != 0.0 || e.position_slope_v_per_rad != 0.0) {
+    const double level = std::max(0.0, e.position_coulomb_v + e.position_slope_v_per_rad * theta);
+    n -= std::tanh(theta_dot / e.position_smoothing_rad_s) * level;
   }
   return n;
 }
@@ -84,7 +118,14 @@ enum class EffectKind {
   kTimeDelay,
   kSaturation,
   kDeadzone,
+  kStribeckFriction,
+  kAsymmetricFriction,
+  kPositionDependentFriction,
+  kCount,  ///< the number of kinds (not a kind): sizes the table
 };
+
+/// The number of effect kinds, kNone included.
+inline constexpr std::size_t kEffectKindCount = static_cast<std::size_t>(EffectKind::kCount);
 
 /// How an effect enters eq. (11) (file comment).
 enum class EffectRole {
@@ -100,6 +141,7 @@ struct EffectScales {
   double kp = 1.0;         ///< the controller's proportional gain [command unit / position unit]
   double theta_min = 0.0;  ///< smallest measured θ [position unit]
   double theta_max = 0.0;  ///< largest measured θ [position unit]
+  double theta_dot_rms = 1.0;  ///< RMS of the measured θ̇ [position unit/s]
 };
 
 /// How validate_effects checks a parameter (the message names the field).
@@ -148,6 +190,9 @@ struct EffectParameter {
   /// parameters after the first (the magnitude, which --vary scales by a factor).
   double sweep_fixed = 0.0;
   double sweep_vary_lo = 0.0, sweep_vary_span = 0.0;
+  /// sweep: the value (fixed or drawn) is a factor on the hidden first parameter (a breakaway
+  /// level 2.5× the Coulomb level) rather than the value itself.
+  bool sweep_times_first = false;
 };
 
 /// The most parameters one effect has (modelling choices included).
@@ -191,6 +236,10 @@ struct EffectSpec {
   /// The effect is stronger when its first parameter is smaller (a saturation's limit): the
   /// sweep's --vary factor divides instead of multiplying.
   bool stronger_when_smaller = false;
+  /// A generalisation of another effect (e.g. Stribeck friction of Coulomb friction): diagnose
+  /// tries it only when that one is among a round's two best candidates, and names it over that
+  /// one only when it beats it in cross-validation (its extra parameters earn their place).
+  EffectKind refines = EffectKind::kNone;
 
   /// The parameters, modelling choices included.
   const EffectParameter* begin() const noexcept { return parameters.data(); }
@@ -207,6 +256,14 @@ inline std::vector<std::vector<double>> scaled_grid(double scale, std::initializ
 inline double half_start(const EffectScales&, double x, const std::vector<double>&) {
   return 0.5 * std::abs(x);
 }
+/// A search grid of the start alone (the equation-error start is good; Nelder-Mead goes on).
+inline std::vector<std::vector<double>> start_only_grid(const EffectScales&,
+                                                        const std::vector<double>& start) {
+  return {start};
+}
+inline void friction_level_bounds(const EffectScales& s, double, double& lo, double& hi) {
+  lo = 0.0, hi = 2.0 * s.v_max;
+}
 inline double half_start_or_2pc_vmax(const EffectScales& s, double x, const std::vector<double>&) {
   return std::max(0.5 * std::abs(x), 0.02 * s.v_max);
 }
@@ -220,7 +277,7 @@ inline std::vector<double> column(std::size_t n, double value) { return std::vec
 }  // namespace detail
 
 /// The one effect table, in EffectKind order ("none" first).
-inline const std::array<EffectSpec, 8> kEffectCatalogue = {{
+inline const std::array<EffectSpec, kEffectKindCount> kEffectCatalogue = {{
     {EffectKind::kNone, "none", "no effect beyond the alpha-invariant model", EffectRole::kNone,
      {}, 0, [](const Effects&) { return false; }},
 
@@ -411,6 +468,129 @@ inline const std::array<EffectSpec, 8> kEffectCatalogue = {{
      nullptr, nullptr, 0.4,
      [](const EffectScales& s) { return std::vector<double>{0.01 * s.v_max, 0.05 * s.v_max}; },
      {0.01, 0.005}},
+
+    {EffectKind::kStribeckFriction, "stribeck_friction",
+     "Stribeck friction: n = -tanh(theta'/eps) (Fc + (Fs - Fc) exp(-(theta'/v_s)^2))",
+     EffectRole::kTorque,
+     {{{"stribeck_coulomb_v", &Effects::stribeck_coulomb_v, "command unit",
+        "Stribeck: Coulomb (sliding) level Fc", ParameterCheck::kNonNegative, false,
+        detail::friction_level_bounds, detail::half_start_or_2pc_vmax},
+       {"stribeck_breakaway_v", &Effects::stribeck_breakaway_v, "command unit",
+        "Stribeck: breakaway level Fs", ParameterCheck::kNonNegative, false,
+        detail::friction_level_bounds, detail::half_start_or_2pc_vmax, 2.5, 2.0, 1.5, true},
+       {"stribeck_velocity_rad_s", &Effects::stribeck_velocity_rad_s, "position unit/s",
+        "Stribeck velocity v_s", ParameterCheck::kPositiveIfActive, false,
+        [](const EffectScales& s, double, double& lo, double& hi) {
+          lo = 0.01 * s.theta_dot_rms, hi = 2.0 * s.theta_dot_rms;
+        },
+        detail::half_start, 0.15, 0.1, 0.2},
+       {"stribeck_smoothing_rad_s", &Effects::stribeck_smoothing_rad_s, "position unit/s",
+        "its tanh smoothing velocity eps", ParameterCheck::kPositiveIfActive, true,
+        detail::no_bounds, detail::half_start}}},
+     4, [](const Effects& e) { return e.stribeck_coulomb_v > 0.0 || e.stribeck_breakaway_v > 0.0; },
+     [](const TorqueRegression& r, const EffectScales& s, Effects& e) {
+       // For each v_s on a log grid: n̂ ≈ −σ·Fc − σ·exp(−(θ̇/v_s)²)·(Fs − Fc) + c; the best R².
+       std::vector<double> sg(r.size()), st(r.size());
+       for (std::size_t k = 0; k < sg.size(); ++k)
+         sg[k] = -std::tanh(r.theta_dot()[k] / e.stribeck_smoothing_rad_s);
+       double best_r2 = -std::numeric_limits<double>::infinity();
+       for (int g = 0; g < 12; ++g) {
+         const double vs = s.theta_dot_rms * 0.02 * std::pow(50.0, g / 11.0);
+         for (std::size_t k = 0; k < st.size(); ++k) {
+           const double x = r.theta_dot()[k] / vs;
+           st[k] = sg[k] * std::exp(-x * x);
+         }
+         double r2 = std::numeric_limits<double>::quiet_NaN();
+         const std::vector<double> b = r.fit({sg, st, detail::column(r.size(), 1.0)}, &r2);
+         if (std::isfinite(r2) && r2 > best_r2) {
+           best_r2 = r2;
+           e.stribeck_coulomb_v = std::clamp(b[0], 0.0, s.v_max);
+           e.stribeck_breakaway_v = std::clamp(b[0] + b[1], 0.0, 2.0 * s.v_max);
+           e.stribeck_velocity_rad_s = vs;
+         }
+       }
+     },
+     detail::start_only_grid, nullptr, nullptr, 0.0, nullptr, {0.02, 0.01}, false,
+     EffectKind::kCoulombFriction},
+
+    {EffectKind::kAsymmetricFriction, "asymmetric_friction",
+     "friction by direction: n = -s (Fc+ h+ + Fc- h-) - (db/2) theta' s, s = tanh(theta'/eps), "
+     "h+- = (1 +- s)/2",
+     EffectRole::kTorque,
+     {{{"asymmetric_coulomb_pos_v", &Effects::asymmetric_coulomb_pos_v, "command unit",
+        "Coulomb level moving forward Fc+", ParameterCheck::kNonNegative, false,
+        detail::friction_level_bounds, detail::half_start_or_2pc_vmax},
+       {"asymmetric_coulomb_neg_v", &Effects::asymmetric_coulomb_neg_v, "command unit",
+        "Coulomb level moving backward Fc-", ParameterCheck::kNonNegative, false,
+        detail::friction_level_bounds, detail::half_start_or_2pc_vmax, 0.5, 0.3, 0.4, true},
+       {"asymmetric_viscous_diff_v_s", &Effects::asymmetric_viscous_diff_v_s,
+        "command unit/(position unit/s)", "viscous level forward minus backward db",
+        ParameterCheck::kFinite, false,
+        [](const EffectScales& s, double, double& lo, double& hi) {
+          hi = s.v_max / std::max(s.theta_dot_rms, 1e-12), lo = -hi;
+        },
+        [](const EffectScales& s, double x, const std::vector<double>&) {
+          return std::max(0.5 * std::abs(x), 0.02 * s.v_max / std::max(s.theta_dot_rms, 1e-12));
+        }},
+       {"asymmetric_smoothing_rad_s", &Effects::asymmetric_smoothing_rad_s, "position unit/s",
+        "its tanh smoothing velocity eps", ParameterCheck::kPositiveIfActive, true,
+        detail::no_bounds, detail::half_start}}},
+     4,
+     [](const Effects& e) {
+       return e.asymmetric_coulomb_pos_v > 0.0 || e.asymmetric_coulomb_neg_v > 0.0 ||
+              e.asymmetric_viscous_diff_v_s != 0.0;
+     },
+     [](const TorqueRegression& r, const EffectScales& s, Effects& e) {
+       // n̂ ≈ −σh⁺·Fc⁺ − σh⁻·Fc⁻ − (θ̇σ/2)·Δb + c
+       std::vector<double> p(r.size()), m(r.size()), v(r.size());
+       for (std::size_t k = 0; k < p.size(); ++k) {
+         const double sg = std::tanh(r.theta_dot()[k] / e.asymmetric_smoothing_rad_s);
+         p[k] = -sg * 0.5 * (1.0 + sg);
+         m[k] = -sg * 0.5 * (1.0 - sg);
+         v[k] = -0.5 * r.theta_dot()[k] * sg;
+       }
+       const std::vector<double> b = r.fit({p, m, v, detail::column(r.size(), 1.0)}, nullptr);
+       e.asymmetric_coulomb_pos_v = std::clamp(b[0], 0.0, s.v_max);
+       e.asymmetric_coulomb_neg_v = std::clamp(b[1], 0.0, s.v_max);
+       const double vmax = s.v_max / std::max(s.theta_dot_rms, 1e-12);
+       e.asymmetric_viscous_diff_v_s = std::clamp(b[2], -vmax, vmax);
+     },
+     detail::start_only_grid, nullptr, nullptr, 0.0, nullptr, {0.02, 0.01}, false,
+     EffectKind::kCoulombFriction},
+
+    {EffectKind::kPositionDependentFriction, "position_dependent_friction",
+     "Coulomb friction varying along theta: n = -tanh(theta'/eps) max(0, Fc0 + s theta)",
+     EffectRole::kTorque,
+     {{{"position_coulomb_v", &Effects::position_coulomb_v, "command unit",
+        "Coulomb level at theta = 0, Fc0", ParameterCheck::kFinite, false,
+        detail::friction_level_bounds, detail::half_start_or_2pc_vmax},
+       {"position_slope_v_per_rad", &Effects::position_slope_v_per_rad,
+        "command unit/position unit", "its slope along theta, s", ParameterCheck::kFinite, false,
+        [](const EffectScales& s, double, double& lo, double& hi) {
+          hi = 4.0 * s.v_max / std::max(s.theta_max - s.theta_min, 1e-12), lo = -hi;
+        },
+        [](const EffectScales& s, double x, const std::vector<double>&) {
+          return std::max(0.5 * std::abs(x), 0.05 * s.v_max / std::max(s.theta_max - s.theta_min, 1e-12));
+        },
+        7.0, 4.0, 6.0, true},  // ±25 … ±70 % of Fc0 over ±0.07 rad
+       {"position_smoothing_rad_s", &Effects::position_smoothing_rad_s, "position unit/s",
+        "its tanh smoothing velocity eps", ParameterCheck::kPositiveIfActive, true,
+        detail::no_bounds, detail::half_start}}},
+     3, [](const Effects& e) { return e.position_coulomb_v != 0.0 || e.position_slope_v_per_rad != 0.0; },
+     [](const TorqueRegression& r, const EffectScales& s, Effects& e) {
+       // n̂ ≈ −σ·Fc0 − σθ·s + c
+       std::vector<double> sg(r.size()), st(r.size());
+       for (std::size_t k = 0; k < sg.size(); ++k) {
+         sg[k] = -std::tanh(r.theta_dot()[k] / e.position_smoothing_rad_s);
+         st[k] = sg[k] * r.theta()[k];
+       }
+       const std::vector<double> b = r.fit({sg, st, detail::column(r.size(), 1.0)}, nullptr);
+       e.position_coulomb_v = std::clamp(b[0], 0.0, s.v_max);
+       const double smax = 4.0 * s.v_max / std::max(s.theta_max - s.theta_min, 1e-12);
+       e.position_slope_v_per_rad = std::clamp(b[1], -smax, smax);
+     },
+     detail::start_only_grid, nullptr, nullptr, 0.0, nullptr, {0.02, 0.01}, false,
+     EffectKind::kCoulombFriction},
 }};
 
 /// The table entry of `kind`.
@@ -418,14 +598,20 @@ inline const EffectSpec& effect_spec(EffectKind kind) noexcept {
   return kEffectCatalogue[static_cast<std::size_t>(kind)];
 }
 
-/// Every kind, kNone first.
-inline constexpr std::array<EffectKind, 8> kAllEffectKinds = {
-    EffectKind::kNone,    EffectKind::kCoulombFriction, EffectKind::kOffsetTorque,
-    EffectKind::kGravity, EffectKind::kCogging,         EffectKind::kTimeDelay,
-    EffectKind::kSaturation, EffectKind::kDeadzone};
+namespace detail {
+constexpr std::array<EffectKind, kEffectKindCount> all_effect_kinds() {
+  std::array<EffectKind, kEffectKindCount> out{};
+  for (std::size_t k = 0; k < kEffectKindCount; ++k) out[k] = static_cast<EffectKind>(k);
+  return out;
+}
+}  // namespace detail
+
+/// Every kind, kNone first (table order).
+inline constexpr std::array<EffectKind, kEffectKindCount> kAllEffectKinds = detail::all_effect_kinds();
 
 /// The catalogue name: "none", "coulomb_friction", "offset_torque", "gravity", "cogging",
-/// "time_delay", "saturation", "deadzone".
+/// "time_delay", "saturation", "deadzone", "stribeck_friction", "asymmetric_friction",
+/// "position_dependent_friction".
 inline const char* effect_name(EffectKind kind) noexcept { return effect_spec(kind).name; }
 
 /// The catalogue's names, comma-separated (for --help and messages); `with_none` adds "none".
