@@ -222,8 +222,10 @@ ModelFile parse_model_file(const std::string& text, const std::string& file) {
   if (!j.contains("controller") || !j["controller"].is_object()) throw Error("missing key", file, 0, "controller");
   const json& c = j["controller"];
   m.controller.kp = get_num(c, "kp", file, "controller.");
-  if (!(m.controller.kp > 0.0)) {
-    throw Error("expected the P gain of the identification runs, > 0 [V/rad], found " +
+  // kp = 0 (with ki = kd = 0) is an open-loop model: a dataset without a controller, driven by
+  // its recorded command (kUnstatedController); a negative or non-finite gain is not physical.
+  if (!(m.controller.kp >= 0.0)) {
+    throw Error("expected the P gain of the identification runs, >= 0 [V/rad] (0: open loop), found " +
                     common::shortest(m.controller.kp),
                 file, 0, "controller.kp");
   }

@@ -132,7 +132,7 @@ TEST_F(OmniFitOutputs, AModelFileMustBeARegularFileOfPhysicalValues) {
   } cases[] = {{"/dev/zero", "/dev/zero: expected a regular file"},
                {fifo.string(), "model.fifo: expected a regular file"},
                {dir_.string(), "expected a file, found a folder"},
-               {kp_neg, "'controller.kp': expected the P gain of the identification runs, > 0"},
+               {kp_neg, "'controller.kp': expected the P gain of the identification runs, >= 0"},
                {vl_neg, "'controller.v_limit': expected null (no limit) or a command limit > 0"},
                {huge, "huge.json"}};
   for (const Case& c : cases) {

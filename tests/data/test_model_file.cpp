@@ -220,7 +220,7 @@ TEST(ModelFile, PhysicallyImpossibleValuesAreRefusedNamingTheKey) {
     return at == std::string::npos ? t : t.replace(at, from.size(), to);
   };
   expect_error(replaced("\"kp\": 2.0", "\"kp\": -2.0"), "'controller.kp': expected the P gain");
-  expect_error(replaced("\"kp\": 2.0", "\"kp\": 0.0"), "'controller.kp'");
+  expect_error(replaced("\"kp\": 2.0", "\"kp\": -1e-9"), "'controller.kp'");
   expect_error(replaced("\"v_limit\": null", "\"v_limit\": -1"),
                "'controller.v_limit': expected null (no limit) or a command limit > 0, found -1");
   expect_error(replaced("\"v_limit\": null", "\"v_limit\": 0"), "'controller.v_limit'");
@@ -258,6 +258,17 @@ TEST(ModelFile, OnlyARegularFileOfBoundedSizeIsRead) {
   write_model_file(good, sample_model());
   EXPECT_EQ(read_model_file(good).controller.kp, 2.0);
   fs::remove_all(dir);
+}
+
+// An open-loop model (fitted on a dataset without a controller, issue #14: kp = ki = kd = 0) is
+// written and read back; the check above refuses only what no gain can be.
+TEST(ModelFile, AnOpenLoopModelRoundTrips) {
+  ModelFile m = sample_model();
+  m.controller = Controller{0.0};
+  const ModelFile back = parse_model_file(format_model_file(m), "open_loop.json");
+  EXPECT_EQ(back.controller.kp, 0.0);
+  EXPECT_EQ(back.controller.ki, 0.0);
+  EXPECT_EQ(back.controller.kd, 0.0);
 }
 
 }  // namespace
