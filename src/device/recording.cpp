@@ -45,7 +45,7 @@ namespace fs = std::filesystem;
 /// The extra columns in the order RunCsvAppender writes them (by name).
 const std::vector<std::string> kExtraColumns = {"C",      "alpha",      "beta_tilde",
                                                 "gamma1", "gamma2",     "theta_pred",
-                                                "torque_enable", "v_p",  "v_comp"};
+                                                "torque_enable", "v_comp", "v_p"};  // by name, as the CSV orders them
 
 }  // namespace
 
@@ -145,7 +145,7 @@ void RunRecorder::write_row(const rt::TickRecord& r) {
   const double row[] = {t,           r.r_rad,       r.theta_rad,    r.command_v,
                         r.damping,   r.alpha,       r.beta_tilde,   r.gamma1_rad,
                         r.gamma2_rad, r.theta_pred_rad, r.enable ? 1.0 : 0.0,
-                        r.p_command_v, r.comp_command_v};
+                        r.comp_command_v, r.p_command_v};
   csv_->add_row(row);
   ++rows_;
   if (new_file) {

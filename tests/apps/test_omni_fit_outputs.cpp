@@ -187,6 +187,9 @@ TEST_F(OmniFitOutputs, ADeclaredFrequencyTheDataDoNotHoldIsSkippedWithTheMeasure
 TEST_F(OmniFitOutputs, ANonUtf8DatasetPathDoesNotCostTheResult) {
   const fs::path latin1 = dir_ / "caf\xe9";
   fs::rename(unfittable_dataset(), latin1);
+  std::ofstream(latin1 / "dataset.json")  // the same run at a pose, so the paper model simulates it
+      << R"({"format": "alphainv-dataset/1", "kp": 2, "runs": [{"file": "run.csv",
+         "kind": "sine", "freq_hz": 1, "amplitude_rad": 0.05, "gamma1_deg": 60, "gamma2_deg": 87}]})";
   const ProcessResult r =
       run_process({kFit, "validate", kPaperModel, latin1.string(), "--json", "-q"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
