@@ -21,7 +21,7 @@ CTL=$BUILD/apps/omni_ctl/omni_ctl
 FIT=$BUILD/apps/omni_fit/omni_fit
 PY=/usr/bin/python3
 HELP="$ROOT/scripts/closed_loop_figures.py"
-HIDDEN=${HIDDEN:-"coulomb_friction:coulomb_v=0.02 offset_torque:offset_v=-0.01 deadzone:deadzone_v=0.01 cogging:cogging_v=0.01,cogging_period_rad=0.02,cogging_phase_rad=0.5"}
+HIDDEN=${HIDDEN:-"coulomb_friction:coulomb_v=0.02 offset_torque:offset_v=0.01 deadzone:deadzone_v=0.01 cogging:cogging_v=0.01,cogging_period_rad=0.016,cogging_phase_rad=1.1"}
 PHASES=${PHASES:-all}
 SIM_NOISE=${SIM_NOISE:-5e-5}
 SIM_SEED=${SIM_SEED:-7}
@@ -109,6 +109,12 @@ if phase hold; then
   echo "6b. hold 30 s, without and with --compensate all"
   ctl --hold --duration 31s --model "$MODEL" --record "$OUT/hold/none"
   ctl --hold --duration 31s --model "$MODEL" --compensate all --record "$OUT/hold/all"
+  if [[ -f $OUT/model_x1.3.json ]]; then
+    for x in 1.3 0.7; do
+      ctl --hold --duration 31s --model "$OUT/model_x$x.json" --compensate all \
+        --record "$OUT/hold/all_x$x"
+    done
+  fi
 fi
 PUSH_SPEED=0.2 PUSH_K=2 PUSH_START=0.5
 if phase free; then
@@ -124,16 +130,16 @@ if phase free; then
 fi
 if phase figures; then
   echo "7. figures"
-  names=$(eval_runs | cut -d: -f1 | tr '\n' ' ')
+  names="$(eval_runs | cut -d: -f1 | tr '\n' ' ') step@0.5"
   {
-    echo "## Tracking RMS |r - theta| (sines: t >= 2 s; step: whole run)"
+    echo "## Tracking RMS |r - theta| (sines: t >= 2 s; step: whole run, and settled)"
     $PY "$HELP" tracking "$OUT/eval" "$MODES" "$names" 2 0
     if [[ -d $OUT/eval/all_x1.3 ]]; then
       echo; echo "## Robustness: --compensate all with the model's effects x1.3 / x0.7"
       $PY "$HELP" tracking "$OUT/eval" "none all all_x1.3 all_x0.7" "$names" 2 0
     fi
     echo; echo "## Hold 30 s"
-    $PY "$HELP" hold "$OUT/hold/none" "$OUT/hold/all"
+    $PY "$HELP" hold "$OUT"/hold/*
     echo; echo "## Free motion (kp 0): mean hand push over the last 2 s"
     $PY "$HELP" push "$PUSH_SPEED" "$PUSH_K" "$PUSH_START" 2.0 "$OUT/free/none" "$OUT/free/effects"
   } | tee "$OUT/figures.md"

@@ -2,7 +2,9 @@
 /// \file rt/control_loop.hpp
 /// The 1 kHz tick of omni_ctl, without timing or I/O: the safety supervisor, the P law (eq. (10))
 /// with the model-based compensation added to it when asked for (compensator.hpp: the model's
-/// effects cancelled, the α-model fed forward along the reference), behind its clamp and slew limit, the streaming α of the command history (eq. (33)), C(α, I) and
+/// effects cancelled, the α-model fed forward along the reference, a jump of the reference
+/// followed along a cycloid the clamp allows), behind its clamp and slew limit, the streaming α of
+/// the command history (eq. (33)), C(α, I) and
 /// β̃(α, I) (eqs. (38)-(42)) with I(γ1, γ2) from the measured pose (eq. (6)), and the model's
 /// one-step prediction of θ (eq. (37) over one tick with the command held).
 ///
@@ -78,8 +80,8 @@ struct HeldLine {
   std::size_t n = 0;
   std::array<double, kMaxBreakpoints> x{}, y{}, slope{};
 
-  /// The line through (x[k], y[k]), k < n (1 ≤ n ≤ kMaxBreakpoints, x increasing). Not real-time
-  /// only in that it is meant for set-up.
+  /// The line through (x[k], y[k]), k < n (1 ≤ n ≤ kMaxBreakpoints, x increasing); for set-up
+  /// (it divides n − 1 times), real-time safe.
   static HeldLine through(const double* x, const double* y, std::size_t n) noexcept;
   /// y at `at`: y[0] below x[0], y[n−1] above x[n−1]. Real-time safe.
   double at(double at_x) const noexcept {
