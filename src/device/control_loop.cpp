@@ -401,11 +401,11 @@ TickRecord ControlLoop::tick(double t_s, const device::ReadResult& input, bool d
   // of the previous tick's C are the previous tick's (reused), those of C when C changed.
   const double T = config_.period_s;
   double e = e_prev_, a = a_prev_;
-  if (c > 0.0 && (c != c_prev_ || !(a_prev_ > 0.0))) {
+  if (c > 0.0 && !(c == c_prev_ && c_prev_ > 0.0)) {
     e = std::exp(-c * T);
     a = (1.0 - e) / c;
   }
-  if (new_report && have_prev_tick_ && c > 0.0 && c_prev_ > 0.0 && a_prev_ > 0.0) {
+  if (new_report && have_prev_tick_ && c > 0.0 && c_prev_ > 0.0) {
     const double g_prev = beta_prev_ * u_prev_ / c_prev_;
     const double theta_dot_prev = (theta_ - theta_prev_ - g_prev * (T - a_prev_)) / a_prev_;
     const double theta_dot = theta_dot_prev * e_prev_ + g_prev * (1.0 - e_prev_);
@@ -425,13 +425,8 @@ TickRecord ControlLoop::tick(double t_s, const device::ReadResult& input, bool d
   v_prev_ = v;
   c_prev_ = c;
   beta_prev_ = beta;
-  if (c > 0.0) {
-    e_prev_ = e;
-    a_prev_ = a;
-  } else {
-    e_prev_ = 1.0;
-    a_prev_ = 0.0;
-  }
+  e_prev_ = c > 0.0 ? e : 1.0;  // those of c_prev_ whenever c_prev_ > 0
+  a_prev_ = c > 0.0 ? a : 0.0;
 
   rec.command_v = v;
   rec.alpha = alpha;
