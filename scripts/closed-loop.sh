@@ -8,8 +8,11 @@
 #   6. robustness (the model's effect sizes 30 % too high and too low), a 30 s hold, free motion
 #      (kp 0, a hand pushing at 0.2 rad/s); 7. the tables and the tracking plots.
 # Usage: scripts/closed-loop.sh [OUT]   (default /tmp/closed-loop; about 10 minutes: every run
-# is real time at 1 kHz). Environment: BUILD (default build/release), HIDDEN (the plant's
-# effects, omni_ctl --sim-effect specs separated by spaces), PHASES (default "all").
+# is real time at 1 kHz, plus diagnose's run time). Environment: BUILD (default build/release),
+# HIDDEN (the plant's effects, omni_ctl --sim-effect specs separated by spaces), SIM_NOISE and
+# SIM_SEED (the encoder's noise [rad] and its seed), DIAGNOSE_OPTS (omni_fit diagnose's options),
+# MODEL (the model deployed, default the diagnosed one), PHASES (default "all", else some of
+# "record fit diagnose eval robust hold free figures"; "identify" = record fit diagnose).
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 BUILD=${BUILD:-$ROOT/build/release}
@@ -18,8 +21,11 @@ CTL=$BUILD/apps/omni_ctl/omni_ctl
 FIT=$BUILD/apps/omni_fit/omni_fit
 PY=/usr/bin/python3
 HELP="$ROOT/scripts/closed_loop_figures.py"
-HIDDEN=${HIDDEN:-"coulomb_friction:coulomb_v=0.02 offset_torque:offset_v=-0.01 deadzone:deadzone_v=0.01 cogging:cogging_v=0.01,cogging_period_rad=0.02,cogging_phase_rad=0.5"}
+HIDDEN=${HIDDEN:-"coulomb_friction:coulomb_v=0.02 offset_torque:offset_v=0.01 deadzone:deadzone_v=0.01 cogging:cogging_v=0.01,cogging_period_rad=0.016,cogging_phase_rad=1.1"}
 PHASES=${PHASES:-all}
+SIM_NOISE=${SIM_NOISE:-5e-5}
+SIM_SEED=${SIM_SEED:-7}
+DIAGNOSE_OPTS=${DIAGNOSE_OPTS:-"--max-effects 4 --fit-runs 5"}
 FREQS="1.5 2 2.5 3 3.5 4 5 6 7"  # the paper's sine plan (Table 1) [Hz]
 MODES="none effects feedforward all"
 
@@ -27,7 +33,7 @@ for tool in "$CTL" "$FIT"; do
   [[ -x $tool ]] || { echo "closed-loop.sh: $tool not built" >&2; exit 1; }
 done
 mkdir -p "$OUT"
-sim_effects=()
+sim_effects=(--sim-noise "$SIM_NOISE" --sim-seed "$SIM_SEED")
 for spec in $HIDDEN; do sim_effects+=(--sim-effect "$spec"); done
 # One run on the virtual device; a fault (exit 3) keeps its recording and is reported.
 ctl() {
@@ -37,7 +43,10 @@ ctl() {
   [[ $rc == 0 || $rc == 3 ]] || { cat "$OUT/last_ctl.log" >&2; exit $rc; }
   [[ $rc == 0 ]] || echo "  (run ended with a fault: $(grep -m1 FAULT "$OUT/last_ctl.log"))"
 }
-phase() { [[ $PHASES == all || " $PHASES " == *" $1 "* ]]; }
+phase() {
+  [[ $PHASES == all || " $PHASES " == *" $1 "* ]] && return 0
+  [[ " $PHASES " == *" identify "* && " record fit diagnose " == *" $1 "* ]]
+}
 # The references of step 4: the sines (6 s) and a step (3 s), as NAME:ARGS.
 eval_runs() {
   for f in $FREQS; do echo "sine_${f}Hz:--sine ${f}Hz --duration 6s"; done
@@ -55,7 +64,7 @@ run_eval() {
 }
 
 echo "closed-loop: the virtual plant's hidden effects: $HIDDEN"
-if phase identify; then
+if phase record; then
   echo "1. recording the identification plan"
   folders=()
   for f in $FREQS; do
@@ -65,11 +74,17 @@ if phase identify; then
   ctl --square 0.25Hz --duration 8s --record "$OUT/id/square"
   folders+=("$OUT/id/square")
   $PY "$HELP" merge "$OUT/identification" "${folders[@]}"
+fi
+if phase fit; then
   echo "2. omni_fit fit"
   "$FIT" fit "$OUT/identification" -o "$OUT/fit" --json > "$OUT/fit.json"
-  echo "3. omni_fit diagnose"
-  "$FIT" diagnose "$OUT/identification" --model "$OUT/fit/model.json" -o "$OUT/diagnose" \
-    --max-effects 4 --json > "$OUT/diagnose.json"
+fi
+if phase diagnose; then
+  echo "3. omni_fit diagnose $DIAGNOSE_OPTS"
+  # shellcheck disable=SC2086
+  /usr/bin/time -f "diagnose: %e s wall, %U s user" \
+    "$FIT" diagnose "$OUT/identification" --model "$OUT/fit/model.json" -o "$OUT/diagnose" \
+    $DIAGNOSE_OPTS --json > "$OUT/diagnose.json"
   jq -c '{named: [.named[]?.effect], effect, verdict}' "$OUT/diagnose.json" 2>/dev/null || true
 fi
 MODEL=${MODEL:-$OUT/diagnose/model.json}
@@ -94,6 +109,12 @@ if phase hold; then
   echo "6b. hold 30 s, without and with --compensate all"
   ctl --hold --duration 31s --model "$MODEL" --record "$OUT/hold/none"
   ctl --hold --duration 31s --model "$MODEL" --compensate all --record "$OUT/hold/all"
+  if [[ -f $OUT/model_x1.3.json ]]; then
+    for x in 1.3 0.7; do
+      ctl --hold --duration 31s --model "$OUT/model_x$x.json" --compensate all \
+        --record "$OUT/hold/all_x$x"
+    done
+  fi
 fi
 PUSH_SPEED=0.2 PUSH_K=2 PUSH_START=0.5
 if phase free; then
@@ -109,16 +130,16 @@ if phase free; then
 fi
 if phase figures; then
   echo "7. figures"
-  names=$(eval_runs | cut -d: -f1 | tr '\n' ' ')
+  names="$(eval_runs | cut -d: -f1 | tr '\n' ' ') step@0.5"
   {
-    echo "## Tracking RMS |r - theta| (sines: t >= 2 s; step: whole run)"
+    echo "## Tracking RMS |r - theta| (sines: t >= 2 s; step: whole run, and settled)"
     $PY "$HELP" tracking "$OUT/eval" "$MODES" "$names" 2 0
     if [[ -d $OUT/eval/all_x1.3 ]]; then
       echo; echo "## Robustness: --compensate all with the model's effects x1.3 / x0.7"
       $PY "$HELP" tracking "$OUT/eval" "none all all_x1.3 all_x0.7" "$names" 2 0
     fi
     echo; echo "## Hold 30 s"
-    $PY "$HELP" hold "$OUT/hold/none" "$OUT/hold/all"
+    $PY "$HELP" hold "$OUT"/hold/*
     echo; echo "## Free motion (kp 0): mean hand push over the last 2 s"
     $PY "$HELP" push "$PUSH_SPEED" "$PUSH_K" "$PUSH_START" 2.0 "$OUT/free/none" "$OUT/free/effects"
   } | tee "$OUT/figures.md"

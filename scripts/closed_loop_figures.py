@@ -69,9 +69,10 @@ def tracking_rms(folder, settle_s):
 def tracking(eval_root, modes, names, settle_sine_s, settle_step_s):
     """Table: tracking RMS |r − θ| per run (rows) and mode (columns), and the cut vs none."""
     rows = []
-    for name in names:
-        settle = settle_step_s if name.startswith("step") else settle_sine_s
-        row = [name]
+    for label in names:  # NAME or NAME@SETTLE (the same run from SETTLE seconds on)
+        name, _, at = label.partition("@")
+        settle = float(at) if at else (settle_step_s if name.startswith("step") else settle_sine_s)
+        row = [name if not at else "%s (t >= %s s)" % (name, at)]
         for mode in modes:
             row.append(tracking_rms(os.path.join(eval_root, mode, name), settle)[0])
         rows.append(row)
@@ -124,7 +125,9 @@ def plot(eval_root, modes, name, out_png, last_s=0.6):
     data_files = []
     for mode in modes:
         cols, _ = read_run(os.path.join(eval_root, mode, name))
-        keep = cols["t"] >= cols["t"][-1] - last_s
+        # a step: its first last_s seconds (the transition), else the last ones
+        keep = (cols["t"] <= last_s) if name.startswith("step") else (
+            cols["t"] >= cols["t"][-1] - last_s)
         path = out_png + "." + mode + ".dat"
         np.savetxt(path, np.column_stack([cols["t"][keep], cols["r"][keep], cols["theta"][keep]]))
         data_files.append((mode, path))

@@ -60,7 +60,8 @@ std::string command_line(int argc, char** argv) {
 constexpr const char* kLoopOptions[] = {"--max-command", "--max-slew",    "--theta-limit",
                                         "--stall-periods", "--max-missed", "--sim-fault",
                                         "--device",      "--model",       "--rt-priority",
-                                        "--no-mlock"};
+                                        "--no-mlock",    "--compensate",  "--sim-effect",
+                                        "--sim-push",    "--sim-noise",   "--sim-seed"};
 
 ExitCode run_local(const Options& opt, const std::atomic<bool>& stop) {
   LoopSetup setup;
@@ -197,6 +198,11 @@ int main(int argc, char** argv) {
   app.add_option("--sim-push", opt.sim_push,
                  "an external torque on --device sim's joint: ramp:RATE[,start=S][,max=V] or "
                  "constant:V [V/s, V, s]");
+  app.add_option("--sim-noise", opt.sim_noise_rad,
+                 "Gaussian noise on --device sim's measured angle, before the encoder step [rad]")
+      ->check(CLI::Range(0.0, 0.01));
+  app.add_option("--sim-seed", opt.sim_seed, "seed of --sim-noise's generator")
+      ->capture_default_str();
   app.add_option("--rt-priority", opt.rt_priority, "SCHED_FIFO priority, 0 = normal scheduler")
       ->capture_default_str()
       ->check(CLI::Range(0, 99));

@@ -48,6 +48,8 @@ struct Options {
   std::string compensate;                // --compensate effects|feedforward|all ("": none)
   std::vector<std::string> sim_effects;  // --sim-effect NAME:PARAM=VALUE[,...] (repeatable)
   std::string sim_push;                  // --sim-push ramp:RATE[,start=S][,max=V] | constant:V
+  double sim_noise_rad = 0.0;            // --sim-noise: measurement noise sigma [rad]
+  std::uint64_t sim_seed = 1;            // --sim-seed: its generator's seed
 };
 
 /// What the loop runs with, built the same way by the single-run mode and the daemon.

@@ -71,6 +71,8 @@ VirtualOmniParams sim_plant(const Options& opt) {
   for (const std::string& spec : opt.sim_effects) {
     apply_effect_spec(spec, p.effects, "--sim-effect " + spec);
   }
+  p.measurement.noise_std_rad = opt.sim_noise_rad;
+  p.measurement.seed = opt.sim_seed;
   p.validate();  // names the field, e.g. a Coulomb level too stiff for the RK4 step
   return p;
 }
@@ -90,6 +92,7 @@ std::unique_ptr<device::Transport> make_transport(const Options& opt) {
   sim_only(!opt.sim_fault.empty(), "--sim-fault");
   sim_only(!opt.sim_effects.empty(), "--sim-effect");
   sim_only(!opt.sim_push.empty(), "--sim-push");
+  sim_only(opt.sim_noise_rad > 0.0, "--sim-noise");
   if (opt.device.rfind("hid", 0) == 0) {
     return std::make_unique<device::HidTransport>(
         device::HidDeviceSpec::parse(opt.device.substr(3), "--device"));

@@ -55,6 +55,11 @@ void CompensatorConfig::validate(double period_s) const {
   }
   detail::require_positive("compensation.friction_smoothing_rad_s", friction_smoothing_rad_s);
   detail::require_positive("compensation.deadzone_smoothing_v", deadzone_smoothing_v);
+  detail::require_positive("compensation.breakaway_smoothing_rad", breakaway_smoothing_rad);
+  const double eta = transition_command_fraction;
+  if (!(std::isfinite(eta) && eta > 0.0 && eta <= 1.0)) {
+    detail::bad("compensation.transition_command_fraction", "0 < fraction <= 1", eta);
+  }
 }
 
 Compensator::Compensator(const CompensatorConfig& config, const Effects& model_effects,
@@ -68,6 +73,9 @@ Compensator::Compensator(const CompensatorConfig& config, const Effects& model_e
   const double p = std::exp(-2.0 * 3.14159265358979323846 * config.velocity_bandwidth_hz * period_s);
   gain_position_ = 1.0 - p * p;
   gain_velocity_ = (1.0 - p) * (1.0 - p) / period_s;
+  inv_friction_smoothing_ = 1.0 / config.friction_smoothing_rad_s;
+  inv_deadzone_smoothing_ = 1.0 / config.deadzone_smoothing_v;
+  inv_breakaway_ = 1.0 / config.breakaway_smoothing_rad;
   // Sort the torque effects generically, through the catalogue: each active one alone, probed.
   for (const EffectSpec& spec : kEffectCatalogue) {
     if (spec.role != EffectRole::kTorque || !spec.active(model_effects)) continue;
@@ -104,31 +112,43 @@ void Compensator::observe(double theta_rad, bool new_report) noexcept {
   velocity_ += gain_velocity_ * residual;
 }
 
-double Compensator::effect_torque_estimate(double w) const noexcept {
+double Compensator::effect_torque_estimate(double w, double breakaway) const noexcept {
   if (!have_state_) return 0.0;
   const double theta_lead = theta_meas_ + velocity_ * lead_s_;
-  // The effects that do not depend on θ̇, plus those that do, faded in through zero velocity.
+  // The effects that do not depend on θ̇, plus those that do, faded in through zero velocity and
+  // at low speed turned towards the P law's target (breakaway, file comment).
   const double still = effect_torque(still_effects_, theta_lead, 0.0);
   if (!any_moving_) return still;
+  const double f = smooth_sign(std::abs(w) * inv_friction_smoothing_);
+  const double rest = 1.0 - f;
+  const double w_c = w + config_.friction_smoothing_rad_s * breakaway * rest;
+  const double g = f + std::abs(breakaway) * rest;
   const double at_rest = effect_torque(moving_effects_, theta_lead, 0.0);
-  const double moving = effect_torque(moving_effects_, theta_lead, w);
-  return still +
-         at_rest + (moving - at_rest) * smooth_sign(std::abs(w) / config_.friction_smoothing_rad_s);
+  const double moving = effect_torque(moving_effects_, theta_lead, w_c);
+  return still + at_rest + (moving - at_rest) * g;
+}
+
+double Compensator::breakaway_direction(double error_rad, double p_command_v) const noexcept {
+  return p_command_v != 0.0 ? smooth_sign(error_rad * inv_breakaway_) : 0.0;
 }
 
 double Compensator::invert_deadzone(double desired_v) const noexcept {
   const double d = effects_.deadzone_v;
   if (!(d > 0.0)) return desired_v;
-  return desired_v + d * smooth_sign(desired_v / config_.deadzone_smoothing_v);
+  return desired_v + d * smooth_sign(desired_v * inv_deadzone_smoothing_);
 }
 
-double Compensator::command(double p_command_v, double feedforward_v,
-                            double reference_rate_rad_s) const noexcept {
+double Compensator::command(double p_command_v, double feedforward_v, double reference_rate_rad_s,
+                            double error_rad) const noexcept {
   const bool ff = feeds_forward(config_.mode);
   const double v = p_command_v + (ff ? feedforward_v : 0.0);
   if (!cancels_effects(config_.mode)) return v;
-  const double w = ff && reference_rate_rad_s != 0.0 ? reference_rate_rad_s : velocity_;
-  return invert_deadzone(v - effect_torque_estimate(w));
+  // With the feedforward the reference's velocity (0 at rest): friction compensated by the
+  // measured velocity is a feedback that, over-estimated, injects energy (negative friction) and
+  // sustains a limit cycle at rest; by ṙ and the position error it is not a feedback on θ̇.
+  const double w = ff ? reference_rate_rad_s : velocity_;
+  return invert_deadzone(
+      v - effect_torque_estimate(w, breakaway_direction(error_rad, p_command_v)));
 }
 
 }  // namespace alphainv::rt

@@ -16,6 +16,16 @@ AlphaEstimatorConfig estimator_for(const ControlLoopConfig& c) {
   return e;
 }
 
+/// sin x and cos x in one call where the C library has it (glibc's sincos). Real-time safe.
+inline void sin_cos(double x, double& s, double& c) noexcept {
+#if defined(__GLIBC__)
+  ::sincos(x, &s, &c);
+#else
+  s = std::sin(x);
+  c = std::cos(x);
+#endif
+}
+
 void require(bool ok, const std::string& field, const std::string& expected, double got) {
   if (!ok) throw Error("expected " + expected + ", got " + std::to_string(got), {}, 0, field);
 }
@@ -69,6 +79,50 @@ void Waveform::rates(double t_s, double& r_dot, double& r_ddot) const noexcept {
   r_ddot = -amplitude_rad * w * w * std::sin(w * t_s);
 }
 
+HeldLine HeldLine::through(const double* x, const double* y, std::size_t n) noexcept {
+  HeldLine l;
+  l.n = std::min(n, kMaxBreakpoints);
+  for (std::size_t k = 0; k < l.n; ++k) {
+    l.x[k] = x[k];
+    l.y[k] = y[k];
+  }
+  for (std::size_t k = 0; k + 1 < l.n; ++k) l.slope[k] = (y[k + 1] - y[k]) / (x[k + 1] - x[k]);
+  return l;
+}
+
+void ReferenceTransition::sample(double t_s, double& r, double& r_dot,
+                                 double& r_ddot) const noexcept {
+  r_dot = r_ddot = 0.0;
+  if (!(duration_s > 0.0) || t_s >= t0_s + duration_s) {
+    r = to_rad;
+    return;
+  }
+  if (t_s <= t0_s) {
+    r = from_rad;
+    return;
+  }
+  const double u = (t_s - t0_s) / duration_s;
+  const double phase = 2.0 * kPi * u;
+  double s = 0.0, c = 1.0;
+  sin_cos(phase, s, c);
+  const double h = to_rad - from_rad;
+  r = from_rad + h * (u - s / (2.0 * kPi));
+  r_dot = h / duration_s * (1.0 - c);
+  r_ddot = h * 2.0 * kPi / (duration_s * duration_s) * s;
+}
+
+double ReferenceTransition::fastest_duration_s(double distance_rad, double damping_max,
+                                               double beta_tilde_min, double command_v) noexcept {
+  const double h = std::abs(distance_rad);
+  if (!(h > 0.0) || !(beta_tilde_min > 0.0) || !(command_v > 0.0)) return 0.0;
+  // x = 1/D solves 2πh·x² + 2Ch·x − β̃V = 0 (the peaks of r̈ and C·ṙ added: a bound).
+  const double c = std::max(damping_max, 0.0);
+  const double b = 2.0 * c * h;
+  const double x = (-b + std::sqrt(b * b + 8.0 * kPi * h * beta_tilde_min * command_v)) /
+                   (4.0 * kPi * h);
+  return 1.0 / x;
+}
+
 void ControlLoopConfig::validate() const {
   validate_effects(effects, "effects.");
   compensation.validate(period_s);
@@ -107,6 +161,21 @@ ControlLoop::ControlLoop(const ControlLoopConfig& config)
       compensator_(config.compensation, config.effects, config.period_s),
       kp_(config.kp) {
   estimator_.reset(0.0);
+  // C·I and β̃·I against α: the model's breakpoint values 1/C_n1, 1/β̃_n1 (eqs. (40), (42)).
+  const AlphaModel& m = config_.model;
+  std::array<double, kMaxBreakpoints> c_i{};
+  for (std::size_t n = 0; n < m.n_breakpoints; ++n) {
+    c_i[n] = 1.0 / m.c_n1[n];
+    damping_i_max_ = std::max(damping_i_max_, c_i[n]);
+  }
+  damping_line_ = HeldLine::through(m.alpha.data(), c_i.data(), m.n_breakpoints);
+  const double b_i[2] = {1.0 / m.beta_n1[0], 1.0 / m.beta_n1[1]};
+  beta_line_ = HeldLine::through(m.beta_alpha.data(), b_i, 2);
+  beta_i_min_ = std::min(b_i[0], b_i[1]);
+  set_reference(wave_, 0.0, false);  // the sine's constants
+  for (const EffectSpec& spec : kEffectCatalogue) {
+    if (spec.role == EffectRole::kTorque && spec.active(config_.effects)) has_torque_effects_ = true;
+  }
   const double ticks = std::round(config_.effects.delay_s / config_.period_s);
   delay_ticks_ = static_cast<std::size_t>(std::min(ticks, static_cast<double>(kMaxDelayTicks)));
 }
@@ -119,6 +188,51 @@ void ControlLoop::set_reference(const Waveform& wave, double t_start_s, bool rel
   wave_ = wave;
   if (relative) wave_.offset_rad += theta_;
   wave_start_s_ = t_start_s;
+  omega_ = 2.0 * kPi * wave_.freq_hz;  // as Waveform::at evaluates it
+  const double lead = omega_ * compensator_.lead_s();
+  cos_lead_ = std::cos(lead);
+  sin_lead_ = std::sin(lead);
+}
+
+void ControlLoop::update_inertia() noexcept {
+  if (have_inertia_ && gamma1_ == inertia_gamma1_ && gamma2_ == inertia_gamma2_) return;
+  inertia_ = config_.inertia.inertia(gamma1_, gamma2_);
+  inv_inertia_ = 1.0 / inertia_;
+  inertia_gamma1_ = gamma1_;
+  inertia_gamma2_ = gamma2_;
+  have_inertia_ = true;
+}
+
+void ControlLoop::reference(double t_s, double lead_s, bool feed_forward, double raw, double& r,
+                            double& r_dot, double& r_ddot) noexcept {
+  r = raw;
+  r_dot = r_ddot = 0.0;
+  if (!feed_forward) return;
+  if (wave_.kind == WaveKind::kSine) {  // the caller's rates; a later jump starts from here
+    have_raw_target_ = false;
+    have_reference_ = true;
+    transition_ = ReferenceTransition{raw, raw, t_s, 0.0};
+    return;
+  }
+  // Piecewise constant (hold, step, square): each jump followed along the fastest cycloid the
+  // clamp allows (ReferenceTransition), from where the reference is now.
+  if (!have_raw_target_ || raw != raw_target_) {
+    double from = raw, unused_dot = 0.0, unused_ddot = 0.0;
+    if (have_reference_) transition_.sample(t_s, from, unused_dot, unused_ddot);
+    const double budget_v =
+        config_.compensation.transition_command_fraction * config_.safety.max_command_v;
+    transition_ = ReferenceTransition{
+        from, raw, t_s,
+        ReferenceTransition::fastest_duration_s(raw - from, damping_i_max_ * inv_inertia_,
+                                                beta_i_min_ * inv_inertia_, budget_v)};
+    raw_target_ = raw;
+    have_raw_target_ = true;
+    have_reference_ = true;
+  }
+  double unused_dot = 0.0, unused_ddot = 0.0;
+  transition_.sample(t_s, r, unused_dot, unused_ddot);
+  double unused_r = 0.0;
+  transition_.sample(t_s + lead_s, unused_r, r_dot, r_ddot);
 }
 
 void ControlLoop::hold() noexcept {
@@ -185,7 +299,7 @@ TickRecord ControlLoop::tick(double t_s, const device::ReadResult& input, bool d
   if (!was_faulted) supervise(input, deadline_missed);
   const bool new_report = input.status == device::IoStatus::kOk && !was_faulted;
 
-  TickRecord rec;
+  TickRecord rec = blank_record_;  // not `TickRecord rec;`: see blank_record_
   rec.t_s = t_s;
   rec.theta_rad = theta_;
   rec.gamma1_rad = gamma1_;
@@ -195,7 +309,21 @@ TickRecord ControlLoop::tick(double t_s, const device::ReadResult& input, bool d
   rec.deadline_missed = deadline_missed;
   rec.theta_pred_rad = have_pred_ && new_report ? theta_pred_next_ : theta_;
   rec.fault = fault_;
-  rec.r_rad = wave_.at(t_s - wave_start_s_);
+  const CompensationMode mode = config_.compensation.mode;
+  const bool ff = feeds_forward(mode);
+  const double t_wave = t_s - wave_start_s_;
+  double sine_sin = 0.0, sine_cos = 0.0;
+  if (wave_.kind == WaveKind::kSine) {  // Waveform::at, with cos(ωt) for the feedforward
+    const double phase = omega_ * t_wave;
+    if (ff) {
+      sin_cos(phase, sine_sin, sine_cos);
+    } else {
+      sine_sin = std::sin(phase);
+    }
+    rec.r_rad = wave_.offset_rad + wave_.amplitude_rad * sine_sin;
+  } else {
+    rec.r_rad = wave_.at(t_wave);
+  }
 
   if (fault_ != Fault::kNone || !have_report_) {
     out_report = safe_report();
@@ -204,36 +332,49 @@ TickRecord ControlLoop::tick(double t_s, const device::ReadResult& input, bool d
     u_prev_ = 0.0;
     have_prev_tick_ = false;
     have_pred_ = false;
+    have_raw_target_ = have_reference_ = false;
     rec.r_rad = fault_ != Fault::kNone ? rec.r_rad : theta_;
     return rec;
   }
 
-  // P law, eq. (10) with ki = kd = 0, plus the compensation (compensator.hpp), then the clamp
-  // and the slew limit.
-  const double inertia = config_.inertia.inertia(gamma1_, gamma2_);
+  // P law, eq. (10) with ki = kd = 0, on the reference r (in the modes that feed forward, a jump
+  // of the waveform followed along a cycloid the clamp allows), plus the compensation
+  // (compensator.hpp), then the clamp and the slew limit.
+  update_inertia();
+  const double inertia = inertia_;
   compensator_.observe(theta_, new_report);
-  const double v_p = kp_ * (rec.r_rad - theta_);
-  double v = v_p;
-  const CompensationMode mode = config_.compensation.mode;
+  double r = rec.r_rad, r_dot = 0.0, r_ddot = 0.0;
   if (mode != CompensationMode::kNone) {
-    double v_ff = 0.0, r_dot = 0.0, r_ddot = 0.0;
-    if (feeds_forward(mode)) {  // r̈ + C(α̂, I)·ṙ = β̃(α̂, I)·v_ff at the tick's middle plus τ
-      wave_.rates(t_s - wave_start_s_ + compensator_.lead_s(), r_dot, r_ddot);
+    reference(t_s, compensator_.lead_s(), ff, rec.r_rad, r, r_dot, r_ddot);
+    if (ff && wave_.kind == WaveKind::kSine) {
+      // ṙ, r̈ at the tick's middle plus τ: (sin, cos)(ω(t + lead)) by rotating (sin, cos)(ωt).
+      const double s_lead = sine_sin * cos_lead_ + sine_cos * sin_lead_;
+      const double c_lead = sine_cos * cos_lead_ - sine_sin * sin_lead_;
+      const double a_w = wave_.amplitude_rad * omega_;
+      r_dot = a_w * c_lead;
+      r_ddot = -a_w * omega_ * s_lead;
+    }
+  }
+  const double v_p = kp_ * (r - theta_);
+  double v = v_p;
+  if (mode != CompensationMode::kNone) {
+    double v_ff = 0.0;
+    if (ff) {  // r̈ + C(α̂, I)·ṙ = β̃(α̂, I)·v_ff
       if (!(c_last_ > 0.0)) {  // the first tick: C, β̃ at the estimator's α̂ and this pose
-        c_last_ = config_.model.damping(alpha_prev_, inertia);
-        beta_last_ = config_.model.beta_tilde(alpha_prev_, inertia);
+        c_last_ = damping_line_.at(alpha_prev_) * inv_inertia_;
+        beta_last_ = beta_line_.at(alpha_prev_) * inv_inertia_;
       }
       v_ff = feedforward_command(r_dot, r_ddot, c_last_, beta_last_);
     }
-    v = compensator_.command(v_p, v_ff, r_dot);
+    v = compensator_.command(v_p, v_ff, r_dot, r - theta_);
   }
   rec.p_command_v = std::isfinite(v_p) ? v_p : 0.0;
   rec.comp_command_v = std::isfinite(v) ? v - rec.p_command_v : 0.0;
   const SafetyLimits& s = config_.safety;
   if (!std::isfinite(v)) v = 0.0;
-  v = std::fmin(std::fmax(v, -s.max_command_v), s.max_command_v);
+  v = std::min(std::max(v, -s.max_command_v), s.max_command_v);
   const double max_step = s.max_slew_v_per_s * config_.period_s;
-  v = std::fmin(std::fmax(v, v_prev_ - max_step), v_prev_ + max_step);
+  v = std::min(std::max(v, v_prev_ - max_step), v_prev_ + max_step);
   out_report.sequence = out_sequence_++;
   out_report.dac_counts = config_.scaling.dac(v);
   out_report.enable = true;
@@ -248,37 +389,44 @@ TickRecord ControlLoop::tick(double t_s, const device::ReadResult& input, bool d
   // α̂ of the command history (eq. (33)), I (eq. (6)), C and β̃ (eqs. (38)-(42)).
   const double alpha = estimator_.update(v_model).alpha;
   alpha_prev_ = alpha;
-  const double c = config_.model.damping(alpha, inertia);
-  const double beta = config_.model.beta_tilde(alpha, inertia);
+  const double c = damping_line_.at(alpha) * inv_inertia_;
+  const double beta = beta_line_.at(alpha) * inv_inertia_;
   c_last_ = c;
   beta_last_ = beta;
 
   // One-step prediction from eq. (37), θ̈ + C θ̇ = β̃ v, exact over a tick with C, β̃, v held:
   //   θ(T) = θ0 + θ̇0·a + (β̃v/C)(T − a),  θ̇(T) = θ̇0·e + (β̃v/C)(1 − e),  e = exp(−CT),
   //   a = (1 − e)/C.
-  // θ̇_k comes from the last two measurements and the previous tick's command and model.
+  // θ̇_k comes from the last two measurements and the previous tick's command and model; e and a
+  // of the previous tick's C are the previous tick's (reused), those of C when C changed.
   const double T = config_.period_s;
+  double e = e_prev_, a = a_prev_;
+  if (c > 0.0 && !(c == c_prev_ && c_prev_ > 0.0)) {
+    e = std::exp(-c * T);
+    a = (1.0 - e) / c;
+  }
   if (new_report && have_prev_tick_ && c > 0.0 && c_prev_ > 0.0) {
-    const double e_prev = std::exp(-c_prev_ * T);
-    const double a_prev = (1.0 - e_prev) / c_prev_;
     const double g_prev = beta_prev_ * u_prev_ / c_prev_;
-    const double theta_dot_prev = (theta_ - theta_prev_ - g_prev * (T - a_prev)) / a_prev;
-    const double theta_dot = theta_dot_prev * e_prev + g_prev * (1.0 - e_prev);
-    const double e = std::exp(-c * T);
-    const double a = (1.0 - e) / c;
+    const double theta_dot_prev = (theta_ - theta_prev_ - g_prev * (T - a_prev_)) / a_prev_;
+    const double theta_dot = theta_dot_prev * e_prev_ + g_prev * (1.0 - e_prev_);
     // u: the command through the effects plus their torque n(θ, θ̇), held over the tick.
-    const double u = v_model + plant_torque(config_.effects, t_s, theta_, theta_dot);
+    const double u =
+        v_model + (has_torque_effects_ ? plant_torque(config_.effects, t_s, theta_, theta_dot) : 0.0);
     theta_pred_next_ = theta_ + theta_dot * a + (beta * u / c) * (T - a);
     u_prev_ = u;
     have_pred_ = true;
   } else {
     have_pred_ = false;
   }
-  if (!have_pred_) u_prev_ = v_model + plant_torque(config_.effects, t_s, theta_, 0.0);
+  if (!have_pred_) {
+    u_prev_ = v_model + (has_torque_effects_ ? plant_torque(config_.effects, t_s, theta_, 0.0) : 0.0);
+  }
   have_prev_tick_ = new_report;
   v_prev_ = v;
   c_prev_ = c;
   beta_prev_ = beta;
+  e_prev_ = c > 0.0 ? e : 1.0;  // those of c_prev_ whenever c_prev_ > 0
+  a_prev_ = c > 0.0 ? a : 0.0;
 
   rec.command_v = v;
   rec.alpha = alpha;

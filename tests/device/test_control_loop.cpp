@@ -308,3 +308,44 @@ TEST(ControlLoop, TickAllocatesNothing) {
     EXPECT_EQ(loop.fault(), Fault::kNone);
   }
 }
+
+TEST(HeldLine, EqualsTheAlphaModelsInterpolationTimesOneOverI) {
+  // The tick's C = line(α)/I, β̃ = line(α)/I with the slopes precomputed: AlphaModel::damping and
+  // ::beta_tilde to rounding, below, between and above the breakpoints.
+  const AlphaModel m = paper_alpha_model();
+  std::array<double, kMaxBreakpoints> c_i{};
+  for (std::size_t n = 0; n < m.n_breakpoints; ++n) c_i[n] = 1.0 / m.c_n1[n];
+  const HeldLine c = HeldLine::through(m.alpha.data(), c_i.data(), m.n_breakpoints);
+  const double b_i[2] = {1.0 / m.beta_n1[0], 1.0 / m.beta_n1[1]};
+  const HeldLine b = HeldLine::through(m.beta_alpha.data(), b_i, 2);
+  for (double inertia : {0.004366, 0.0031, 1.0}) {
+    for (double alpha : {-3.0, 0.0, 1.1, 2.2, 13.0, 25.0, 140.0, 250.0, 900.0}) {
+      EXPECT_NEAR(c.at(alpha) / inertia, m.damping(alpha, inertia), 1e-13 * m.damping(alpha, inertia));
+      EXPECT_NEAR(b.at(alpha) / inertia, m.beta_tilde(alpha, inertia),
+                  1e-13 * m.beta_tilde(alpha, inertia));
+    }
+  }
+}
+
+TEST(ReferenceTransition, ACycloidFromRestToRestWithinItsCommandBudget) {
+  const ReferenceTransition tr{0.01, 0.06, 0.2, 0.05};
+  double r = 0.0, rd = 0.0, rdd = 0.0;
+  tr.sample(0.1, r, rd, rdd);
+  EXPECT_EQ(r, 0.01);
+  EXPECT_EQ(rd, 0.0);
+  tr.sample(0.3, r, rd, rdd);
+  EXPECT_EQ(r, 0.06);
+  EXPECT_EQ(rdd, 0.0);
+  tr.sample(0.225, r, rd, rdd);  // the middle: half way, peak velocity 2h/D, no acceleration
+  EXPECT_NEAR(r, 0.035, 1e-15);
+  EXPECT_NEAR(rd, 2.0 * 0.05 / 0.05, 1e-13);
+  EXPECT_NEAR(rdd, 0.0, 1e-9);
+  tr.sample(0.2125, r, rd, rdd);  // a quarter: peak acceleration 2πh/D²
+  EXPECT_NEAR(rdd, 2.0 * kPi * 0.05 / (0.05 * 0.05), 1e-9);
+  EXPECT_NEAR(rd, 0.05 / 0.05, 1e-13);
+  // The fastest duration solves 2πh/D² + 2Ch/D = β̃·V.
+  const double h = 0.07, C = 17.0, B = 170.0, V = 0.6;
+  const double D = ReferenceTransition::fastest_duration_s(-h, C, B, V);
+  EXPECT_NEAR(2.0 * kPi * h / (D * D) + 2.0 * C * h / D, B * V, 1e-9 * B * V);
+  EXPECT_EQ(ReferenceTransition::fastest_duration_s(0.0, C, B, V), 0.0);
+}

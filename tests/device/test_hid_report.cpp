@@ -88,3 +88,18 @@ TEST(ReportScaling, RoundsAndSaturates) {
   EXPECT_EQ(s.counts(0, std::nan("")), -2147483647);
   EXPECT_NEAR(s.angle_rad(0, 6667), 6667 * 1.5e-4, 1e-12);
 }
+
+TEST(ReportScaling, DacRoundsAsStdRoundHalfAwayFromZero) {
+  // dac() rounds without the library call: the same counts as std::round for every command,
+  // ties included.
+  const ReportScaling s;
+  for (double counts : {0.5, -0.5, 1.5, -2.5, 0.49999999999999994, 6553.5, -32766.5, 32766.49}) {
+    EXPECT_EQ(s.dac(counts / s.dac_counts_per_v),
+              static_cast<std::int16_t>(std::round(counts / s.dac_counts_per_v * s.dac_counts_per_v)))
+        << counts;
+  }
+  for (int k = -20000; k <= 20000; ++k) {
+    const double v = k * 7.77e-5;
+    ASSERT_EQ(s.dac(v), static_cast<std::int16_t>(std::round(v * s.dac_counts_per_v))) << v;
+  }
+}

@@ -13,7 +13,15 @@
 ///   whether their term depends on θ̇, so the tick evaluates the others once):
 ///       n̂ = n(θ_L, 0) + [n(θ_L, w) − n(θ_L, 0)]·s(|w|/ε_c),   s(x) = x/√(1 + x²),
 ///   so the friction compensation is continuous and flat at w = 0 (no chatter on encoder steps, no
-///   limit cycle at rest) and complete for |w| ≫ ε_c. w is the filtered velocity θ̇_f, except in the
+///   limit cycle at rest) and complete for |w| ≫ ε_c. At rest that alone leaves a stiction band:
+///   the joint stops wherever the P law's kp·|e| no longer overcomes the friction (Fc/kp, 10 mrad
+///   for 0.02 V at 2 V/rad). So at low speed the friction is compensated in the direction the P
+///   law pushes (breakaway): with f = s(|w|/ε_c) and σ = s(e/e_b) (e = the P law's position error,
+///   0 when kp = 0: free motion has no target),
+///       n̂ = n(θ_L, 0) + [n(θ_L, w_c) − n(θ_L, 0)]·g,  w_c = w + ε_c·σ·(1 − f),  g = f + |σ|·(1 − f),
+///   which is the formula above for |w| ≫ ε_c or e = 0, and the friction just above zero velocity
+///   in the error's direction at rest. It acts like a spring stiffer than kp within e_b of the
+///   target (restoring, so the hold stays within an encoder step or two: no limit cycle). w is the filtered velocity θ̇_f, except in the
 ///   mode `all` while the reference moves (a sine): there the joint follows the reference and w is
 ///   ṙ at the tick's middle plus τ, which reverses when the motion does, not a few ticks later (a
 ///   filtered velocity fades the compensation out at each reversal, and the joint sticks there
@@ -69,6 +77,13 @@ struct CompensatorConfig {
   double friction_smoothing_rad_s = 0.03;
   /// δ [command unit]: width of the smooth deadzone inverse x + d·s(x/δ).
   double deadzone_smoothing_v = 1e-3;
+  /// e_b [rad]: at low speed the velocity-dependent effects are evaluated in the direction of the
+  /// P law's position error e, faded in as s(e/e_b) (breakaway, file comment); 2 encoder steps.
+  double breakaway_smoothing_rad = 3e-4;
+  /// η: in the modes that feed forward, a jump of the reference (a step, a square wave's edge) is
+  /// followed along the fastest cycloid whose feedforward needs at most η·max_command_v of the
+  /// clamp (control_loop.hpp); 0 < η ≤ 1.
+  double transition_command_fraction = 0.6;
   /// Evaluate position-dependent effects at θ + θ̇_f·(T/2 + τ) rather than at θ.
   bool lead = true;
 
@@ -98,20 +113,23 @@ class Compensator {
   void reset() noexcept;
 
   /// n̂ [command unit]: the model's torque effects at the observer's angle (led) and the velocity
-  /// `velocity_rad_s`, smoothed through zero velocity (file comment); 0 before the first
-  /// measurement. Real-time safe.
-  double effect_torque_estimate(double velocity_rad_s) const noexcept;
+  /// `velocity_rad_s`, smoothed through zero velocity, with the breakaway direction
+  /// `breakaway` = σ ∈ [−1, 1] (file comment); 0 before the first measurement. Real-time safe.
+  double effect_torque_estimate(double velocity_rad_s, double breakaway = 0.0) const noexcept;
   /// The same at the filtered velocity θ̇_f. Real-time safe.
   double effect_torque_estimate() const noexcept { return effect_torque_estimate(velocity_); }
+  /// σ = s(e/e_b) for the P law's position error `error_rad` (0 when `p_command_v` is 0: no
+  /// target to break away towards). Real-time safe.
+  double breakaway_direction(double error_rad, double p_command_v) const noexcept;
   /// Z⁻¹ smoothed: the command [command unit] whose deadzone output is `desired_v`. Real-time safe.
   double invert_deadzone(double desired_v) const noexcept;
   /// The command before the clamp [command unit] for the P law's `p_command_v` and the feedforward
   /// `feedforward_v` (used only in the modes that feed forward): in the modes that cancel effects
   /// Z⁻¹(v_p + v_ff − n̂), otherwise v_p + v_ff. `reference_rate_rad_s`: ṙ at the tick's middle
-  /// plus τ when the reference moves (n̂'s velocity in the mode `all`, file comment), else 0.
-  /// Real-time safe.
-  double command(double p_command_v, double feedforward_v,
-                 double reference_rate_rad_s = 0.0) const noexcept;
+  /// plus τ when the reference moves (n̂'s velocity in the mode `all`, file comment), else 0;
+  /// `error_rad` the P law's position error (the breakaway direction). Real-time safe.
+  double command(double p_command_v, double feedforward_v, double reference_rate_rad_s = 0.0,
+                 double error_rad = 0.0) const noexcept;
 
   /// Filtered velocity θ̇_f [rad/s]. Real-time safe.
   double velocity_rad_s() const noexcept { return velocity_; }
@@ -129,6 +147,8 @@ class Compensator {
   double period_s_;
   double lead_s_;
   double gain_position_ = 0.0, gain_velocity_ = 0.0;  ///< α-β gains a, b/T
+  /// 1/ε_c, 1/δ, 1/e_b (precomputed: the tick multiplies).
+  double inv_friction_smoothing_ = 0.0, inv_deadzone_smoothing_ = 0.0, inv_breakaway_ = 0.0;
   bool have_state_ = false;
   double theta_meas_ = 0.0;  ///< newest measured θ [rad]
   double theta_hat_ = 0.0;   ///< observer's θ [rad]

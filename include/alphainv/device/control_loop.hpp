@@ -2,7 +2,9 @@
 /// \file rt/control_loop.hpp
 /// The 1 kHz tick of omni_ctl, without timing or I/O: the safety supervisor, the P law (eq. (10))
 /// with the model-based compensation added to it when asked for (compensator.hpp: the model's
-/// effects cancelled, the α-model fed forward along the reference), behind its clamp and slew limit, the streaming α of the command history (eq. (33)), C(α, I) and
+/// effects cancelled, the α-model fed forward along the reference, a jump of the reference
+/// followed along a cycloid the clamp allows), behind its clamp and slew limit, the streaming α of
+/// the command history (eq. (33)), C(α, I) and
 /// β̃(α, I) (eqs. (38)-(42)) with I(γ1, γ2) from the measured pose (eq. (6)), and the model's
 /// one-step prediction of θ (eq. (37) over one tick with the command held).
 ///
@@ -70,6 +72,41 @@ struct Waveform {
   /// ṙ [rad/s] and r̈ [rad/s²] at t_s: sine Aω·cos(ωt), −Aω²·sin(ωt); the others 0 (their jumps
   /// have no derivative the command could follow). Real-time safe.
   void rates(double t_s, double& r_dot, double& r_ddot) const noexcept;
+};
+
+/// y(x) piecewise linear over increasing breakpoints, held outside them, with the segment slopes
+/// precomputed (AlphaModel's interpolation without a division in the tick). Real-time safe.
+struct HeldLine {
+  std::size_t n = 0;
+  std::array<double, kMaxBreakpoints> x{}, y{}, slope{};
+
+  /// The line through (x[k], y[k]), k < n (1 ≤ n ≤ kMaxBreakpoints, x increasing); for set-up
+  /// (it divides n − 1 times), real-time safe.
+  static HeldLine through(const double* x, const double* y, std::size_t n) noexcept;
+  /// y at `at`: y[0] below x[0], y[n−1] above x[n−1]. Real-time safe.
+  double at(double at_x) const noexcept {
+    if (n == 1 || at_x <= x[0]) return y[0];
+    if (at_x >= x[n - 1]) return y[n - 1];
+    std::size_t k = 1;
+    while (at_x > x[k]) ++k;  // x[k-1] < at <= x[k]
+    return y[k - 1] + (at_x - x[k - 1]) * slope[k - 1];
+  }
+};
+
+/// A jump of the reference followed along a cycloid (the modes that feed forward): from r0 to r1
+/// over D seconds from t0,
+///     r(t) = r0 + (r1 − r0)·(u − sin(2πu)/(2π)),  u = (t − t0)/D ∈ [0, 1],
+/// whose velocity and acceleration start and end at 0 (no impulse in the feedforward) and peak at
+/// 2(r1 − r0)/D and 2π(r1 − r0)/D². Real-time safe.
+struct ReferenceTransition {
+  double from_rad = 0.0, to_rad = 0.0, t0_s = 0.0, duration_s = 0.0;
+  /// r [rad], ṙ [rad/s], r̈ [rad/s²] at t_s.
+  void sample(double t_s, double& r, double& r_dot, double& r_ddot) const noexcept;
+  /// D [s] of the fastest such transition over `distance_rad` whose feedforward
+  /// (r̈ + C·ṙ)/β̃ stays within `command_v` (bounded by its peaks, with the largest C [1/s] and
+  /// the smallest β̃ the model has at this pose): 2π·h/D² + 2C·h/D = β̃·command_v.
+  static double fastest_duration_s(double distance_rad, double damping_max,
+                                   double beta_tilde_min, double command_v) noexcept;
 };
 
 /// Constant parameters of the loop.
@@ -161,9 +198,39 @@ class ControlLoop {
  private:
   void supervise(const device::ReadResult& input, bool deadline_missed) noexcept;
 
+  /// I(γ1, γ2) and 1/I, recomputed only when the measured pose changes.
+  void update_inertia() noexcept;
+  /// The reference r the P law tracks and, in the modes that feed forward, ṙ and r̈ at the tick's
+  /// middle plus τ (`lead_s`), at t_wave [s] since the waveform's start; `raw` is the waveform's
+  /// own r (recorded).
+  void reference(double t_wave, double lead_s, bool feed_forward, double raw, double& r,
+                 double& r_dot, double& r_ddot) noexcept;
+
   ControlLoopConfig config_;
   AlphaEstimator estimator_;
   Compensator compensator_;
+  /// C·I and β̃·I of the model against α (C = damping_line_.at(α)/I, eqs. (38)-(42)); their
+  /// largest and smallest values (the transition's budget).
+  HeldLine damping_line_, beta_line_;
+  double damping_i_max_ = 0.0, beta_i_min_ = 0.0;
+  double inertia_ = 0.0, inv_inertia_ = 0.0;
+  double inertia_gamma1_ = 0.0, inertia_gamma2_ = 0.0;
+  bool have_inertia_ = false;
+  /// The sine's ω = 2πf, and cos, sin of ω·lead (the feedforward's reference, rotated).
+  double omega_ = 0.0, cos_lead_ = 1.0, sin_lead_ = 0.0;
+  /// The jump being followed (feedforward modes) and the waveform's value it goes to.
+  ReferenceTransition transition_;
+  double raw_target_ = 0.0;
+  bool have_raw_target_ = false;
+  bool have_reference_ = false;  ///< transition_ holds the reference now followed
+  /// A default TickRecord, copied into each tick's record: the compiler turns a value-initialised
+  /// record into a `rep stos`, whose start-up cost was 9 % of the tick (perf), and a copy of a
+  /// member it cannot see into into nine SSE moves.
+  TickRecord blank_record_{};
+  /// The model has a torque effect (else the prediction skips n(θ, θ̇) = 0).
+  bool has_torque_effects_ = false;
+  /// exp(−C_prev·T) and (1 − e)/C_prev of the previous tick's prediction (reused by this one).
+  double e_prev_ = 1.0, a_prev_ = 0.0;
   double alpha_prev_ = 0.0;  ///< the previous tick's α̂ (for the feedforward)
   /// The previous tick's C(α̂, I) and β̃(α̂, I) (the feedforward's; 0 before the first tick).
   double c_last_ = 0.0, beta_last_ = 0.0;

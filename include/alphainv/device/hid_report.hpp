@@ -91,11 +91,15 @@ struct ReportScaling {
   }
   /// Nearest DAC counts of a command [V], saturated to ±32767 (NaN → 0). Real-time safe.
   std::int16_t dac(double command_v) const noexcept {
-    const double c = std::round(command_v * dac_counts_per_v);
-    if (std::isnan(c)) return 0;
-    if (c > 32767.0) return 32767;
-    if (c < -32767.0) return -32767;
-    return static_cast<std::int16_t>(c);
+    const double x = command_v * dac_counts_per_v;
+    if (std::isnan(x)) return 0;
+    if (x >= 32767.0) return 32767;
+    if (x <= -32767.0) return -32767;
+    // std::round (half away from zero) without the library call: t = trunc(x) and x − t are
+    // exact for |x| < 2^52.
+    const auto t = static_cast<std::int32_t>(x);
+    const double frac = x - static_cast<double>(t);
+    return static_cast<std::int16_t>(frac >= 0.5 ? t + 1 : (frac <= -0.5 ? t - 1 : t));
   }
   /// Command [V] of DAC counts. Real-time safe.
   double command_v(std::int16_t dac_counts) const noexcept {
