@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <mutex>
 #include <random>
 #include <sstream>
 
@@ -14,6 +15,7 @@
 #include "alphainv/error.hpp"
 #include "alphainv/simulate/experiment_plan.hpp"
 #include "apps/common/exit_code.hpp"
+#include "common/parallel_for.hpp"
 #include "plots.hpp"
 
 namespace omni_fit {
@@ -105,7 +107,7 @@ CLI::App* add_sweep_subcommand(CLI::App& app, SweepCommandOptions& o) {
               "exit 3 unless every case names its effect (cutting the RMS error by >= 30 %) and "
               "every effect-free case says none");
   c->add_flag("--json", o.json, "print the cases as one JSON object");
-  c->add_option("--threads", o.threads, "threads (default: all cores)");
+  c->add_option("--threads", o.threads, "cases diagnosed side by side, one thread each (default: all cores)");
   c->add_option("-o,--out", o.out_file, "write the confusion matrix (Markdown) to this file");
   c->footer("Each case: the paper's 9-frequency sine sweep and a 0.25 Hz square wave at one pose "
             "(10 runs, 1 kHz, kp = 2, encoder quantisation 1.5e-4 rad, noise as listed), one "
@@ -152,7 +154,13 @@ int run_sweep(const SweepCommandOptions& o) {
   int none_explained = 0, right_explained = 0;  // ... and the verdict: explained to the noise floor
   nlohmann::json jcases = nlohmann::json::array();
   const auto t0 = std::chrono::steady_clock::now();
-  for (std::size_t ci = 0; ci < cases.size(); ++ci) {
+  // The cases run side by side, one thread each (diagnose's own parallelism is over a case's
+  // simulations, which a 10-run case does not keep two cores busy with); the results are read
+  // in case order below, so the output does not depend on the threads.
+  const unsigned threads = common::thread_count(o.threads, cases.size());
+  std::vector<DiagnoseResult> results(cases.size());
+  std::mutex progress;
+  common::parallel_for(cases.size(), threads, [&](std::size_t ci) {
     const SweepCase& c = cases[ci];
     ExperimentPlanOptions plan = paper_plan_options(c.seed);
     plan.plant.effects.coulomb_v = 0.0;  // only the hidden effect
@@ -164,8 +172,20 @@ int run_sweep(const SweepCommandOptions& o) {
     plan.square_poses = {pose};
     const GeneratedDataset gen = generate_dataset(make_experiment_plan(plan));
     DiagnoseOptions dopt;
-    dopt.threads = o.threads;
-    const DiagnoseResult r = diagnose_dataset(gen.index, gen.runs, dopt);
+    dopt.threads = 1;
+    results[ci] = diagnose_dataset(gen.index, gen.runs, dopt);
+    const DiagnoseResult& r = results[ci];
+    const EffectKind named = r.ok && !r.effects_named.empty() ? r.effects_named.front() : EffectKind::kNone;
+    const std::lock_guard<std::mutex> lock(progress);
+    std::fprintf(stderr, "[%zu/%zu] %-16s %-8.3g noise %.0e seed %llu -> %-16s RMS %.3g -> %.3g %.1f s\n",
+                 ci + 1, cases.size(), effect_name(c.effect), hidden_magnitude(c), c.noise_std_rad,
+                 static_cast<unsigned long long>(c.seed), effect_name(named), r.error_before,
+                 r.error_after, r.seconds);
+  });
+  const auto poses = paper_sine_poses();
+  for (std::size_t ci = 0; ci < cases.size(); ++ci) {
+    const SweepCase& c = cases[ci];
+    const DiagnoseResult& r = results[ci];
     const EffectKind named = r.ok && !r.effects_named.empty() ? r.effects_named.front() : EffectKind::kNone;
     const double cut = r.error_before > 0 ? 1.0 - r.error_after / r.error_before : 0.0;
     ++matrix[{static_cast<int>(c.effect), static_cast<int>(named)}];
@@ -184,8 +204,8 @@ int run_sweep(const SweepCommandOptions& o) {
       cut_ok += cut >= 0.30;
     }
     const double magnitude = hidden_magnitude(c);
-    std::fprintf(stderr, "[%zu/%zu] %-16s %-8.3g noise %.0e seed %llu -> %-16s RMS %.3g -> %.3g (%.0f %%) %.1f s, %s%s\n",
-                 ci + 1, cases.size(), effect_name(c.effect), magnitude, c.noise_std_rad,
+    std::fprintf(stderr, "%-16s %-8.3g noise %.0e seed %llu -> %-16s RMS %.3g -> %.3g (%.0f %%) %.1f s, %s%s\n",
+                 effect_name(c.effect), magnitude, c.noise_std_rad,
                  static_cast<unsigned long long>(c.seed), effect_name(named), r.error_before,
                  r.error_after, 100.0 * cut, r.seconds,
                  explained ? "explained" : "structure remains", ok_name ? "" : "  WRONG");

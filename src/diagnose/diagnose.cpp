@@ -331,7 +331,7 @@ Reidentifier::Reidentifier(const std::vector<DiagnoseRun>& runs, double sample_p
       if (inertia_[k] == r.model.inertia) pose = k;
     }
     if (pose == inertia_.size()) inertia_.push_back(r.model.inertia);
-    sines_.push_back({&r, w, pose});
+    sines_.push_back({&r, w, pose, sine_point_theta_dot(d)});
   }
   usable_ = sines_.size() >= options_.n_breakpoints + 1;
 }
@@ -347,8 +347,8 @@ std::vector<AlphaFitPose> Reidentifier::points(const Effects& e) const {
   std::vector<AlphaFitPose> poses(inertia_.size());
   for (std::size_t k = 0; k < poses.size(); ++k) poses[k].inertia = inertia_[k];
   for (const SineRun& s : sines_) {
-    poses[s.pose].points.push_back(sine_point_with_effects(*s.run->data, s.window, *s.run->freq_hz,
-                                                           options_.kp, sample_period_s_, e));
+    poses[s.pose].points.push_back(sine_point_with_effects(
+        *s.run->data, s.window, *s.run->freq_hz, options_.kp, sample_period_s_, e, s.theta_dot));
   }
   return poses;
 }

@@ -140,6 +140,7 @@ class Reidentifier {
     const DiagnoseRun* run;
     IndexRange window;
     std::size_t pose;
+    std::vector<double> theta_dot;  ///< sine_point_theta_dot() of the run (once, not per trial)
   };
 
   double sample_period_s_ = 0.0;

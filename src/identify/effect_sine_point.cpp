@@ -48,6 +48,12 @@ double deadzone_alpha_ratio(const RunData& run, IndexRange window, double sample
   return sv > 0.0 && su > 0.0 && std::isfinite(ratio) ? ratio : 1.0;
 }
 
+/// The plant input has a torque term n(θ, θ̇) + d(t) (which needs θ̇).
+bool has_torque(const Effects& effects, const KnownInputSeries& known) {
+  return effects.coulomb_v > 0.0 || effects.offset_v != 0.0 || effects.gravity_v != 0.0 ||
+         effects.cogging_v != 0.0 || known.has_disturbance();
+}
+
 }  // namespace
 
 LocalLinearPoint local_linear_point_from_input(double freq_hz, std::complex<double> theta,
@@ -67,8 +73,23 @@ LocalLinearPoint local_linear_point_from_input(double freq_hz, std::complex<doub
   return p;
 }
 
+std::vector<double> sine_point_theta_dot(const RunData& run) {
+  std::vector<double> dth, ddth;
+  local_quadratic_derivatives(run.t, run.theta, 0.01, dth, ddth);
+  return dth;
+}
+
 LocalLinearPoint sine_point_with_effects(const RunData& run, IndexRange window, double freq_hz,
                                          double kp, double sample_period_s, const Effects& effects) {
+  return sine_point_with_effects(
+      run, window, freq_hz, kp, sample_period_s, effects,
+      has_torque(effects, KnownInputSeries::of_run(run)) ? sine_point_theta_dot(run)
+                                                          : std::vector<double>{});
+}
+
+LocalLinearPoint sine_point_with_effects(const RunData& run, IndexRange window, double freq_hz,
+                                         double kp, double sample_period_s, const Effects& effects,
+                                         const std::vector<double>& theta_dot) {
   LocalLinearPoint bad;
   bad.freq_hz = freq_hz;
   bad.omega_rad_s = kTwoPi * freq_hz;
@@ -88,12 +109,9 @@ LocalLinearPoint sine_point_with_effects(const RunData& run, IndexRange window, 
   if (!ft.valid || !fv.valid || !fa.valid) return bad;
   // The delay shifts the amplifier's output: a phase −ωτ on its fundamental.
   std::complex<double> u = phasor(fa) * std::polar(1.0, -w * effects.delay_s);
-  const bool torque = effects.coulomb_v > 0.0 || effects.offset_v != 0.0 ||
-                      effects.gravity_v != 0.0 || effects.cogging_v != 0.0 ||
-                      known.has_disturbance();
-  if (torque) {
-    std::vector<double> dth, ddth;
-    local_quadratic_derivatives(run.t, run.theta, 0.01, dth, ddth);
+  if (has_torque(effects, known)) {
+    const std::vector<double>& dth = theta_dot;
+    if (dth.size() != run.size()) return bad;
     std::vector<double> nt(n);
     for (std::size_t k = 0; k < n; ++k) {
       const std::size_t i = window.begin + k;

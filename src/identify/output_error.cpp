@@ -4,6 +4,7 @@
 #include <atomic>
 #include <cmath>
 #include <memory>
+#include <mutex>
 
 #include <Eigen/Dense>
 #include <ceres/ceres.h>
@@ -37,14 +38,92 @@ double fd_step(const OutputErrorParameter& par, double x) {
   return 1e-5 * std::max(scale, 1e-9);
 }
 
+/// One run's last simulations at the base points of the fit (never the Jacobian's perturbed
+/// ones), and its last Jacobians. The simulation is deterministic in p, so a hit is exactly what
+/// simulating again would give. Ceres asks for the same point several times: the bounded
+/// problem's projected line search evaluates the cost and gradient at the trust-region step, then
+/// the minimiser evaluates the cost there and, when it accepts the step, the residuals and
+/// Jacobian again; the residual scale, the standard errors and the final RMS are at points the
+/// solver has evaluated. Thread-safe (one mutex; the simulations run outside it).
+class RunMemo {
+ public:
+  /// θ_sim at p (all samples); nullptr when not held. `ok` false: the simulation failed there.
+  bool find_theta(const double* p, std::size_t np, std::vector<double>& theta, bool& ok) const {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    for (const Entry& e : thetas_) {
+      if (same(e.p, p, np)) {
+        ok = e.ok;
+        if (ok) theta = e.values;
+        return true;
+      }
+    }
+    return false;
+  }
+  void add_theta(const double* p, std::size_t np, const std::vector<double>& theta, bool ok) {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    push(thetas_, {std::vector<double>(p, p + np), ok ? theta : std::vector<double>{}, ok},
+         kThetas);
+  }
+  /// The Jacobian (row-major, residuals × parameters) at p with residual scale `scale`.
+  bool find_jacobian(const double* p, std::size_t np, double scale, double* out) const {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    for (const Entry& e : jacobians_) {
+      if (e.scale == scale && same(e.p, p, np)) {
+        std::copy(e.values.begin(), e.values.end(), out);
+        return true;
+      }
+    }
+    return false;
+  }
+  void add_jacobian(const double* p, std::size_t np, double scale, const double* jac,
+                    std::size_t size) {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    Entry e{std::vector<double>(p, p + np), std::vector<double>(jac, jac + size), true};
+    e.scale = scale;
+    push(jacobians_, std::move(e), kJacobians);
+  }
+
+ private:
+  struct Entry {
+    std::vector<double> p, values;
+    bool ok = true;
+    double scale = 0.0;
+  };
+  /// Points held: the line search's trials of one iteration and the accepted point before them.
+  static constexpr std::size_t kThetas = 6, kJacobians = 3;
+  static bool same(const std::vector<double>& a, const double* p, std::size_t np) {
+    return a.size() == np && std::equal(a.begin(), a.end(), p);
+  }
+  static void push(std::vector<Entry>& v, Entry e, std::size_t cap) {
+    if (v.size() >= cap) v.erase(v.begin());
+    v.push_back(std::move(e));
+  }
+  mutable std::mutex mutex_;
+  std::vector<Entry> thetas_, jacobians_;
+};
+
+/// θ_sim of run i at p through its memo (memo may be null); false when the simulation fails.
+bool memo_theta(const OutputErrorProblem& problem, const double* p, std::size_t i, RunMemo* memo,
+                std::atomic<long>& sims, std::vector<double>& theta) {
+  const std::size_t np = problem.parameters.size();
+  bool ok = false;
+  if (memo != nullptr && memo->find_theta(p, np, theta, ok)) return ok;
+  ++sims;
+  SimulationResult sim = simulate_output_error_run(problem, p, i);
+  ok = sim.ok && sim.theta.size() == problem.runs[i].data->size();
+  if (ok) theta = std::move(sim.theta);
+  if (memo != nullptr) memo->add_theta(p, np, theta, ok);
+  return ok;
+}
+
 /// One run's residuals w·(θ_sim − θ) at its residual samples; Jacobian by central differences.
 class RunCost final : public ceres::CostFunction {
  public:
   /// `scale` divides every residual (so that the solver's absolute tolerances see a cost of order
-  /// one whatever the position unit).
+  /// one whatever the position unit). `memo` (may be null) holds the run's recent simulations.
   RunCost(const OutputErrorProblem& problem, std::size_t run, std::atomic<long>& sims,
-          double scale, unsigned threads)
-      : problem_(problem), run_(run), sims_(sims), threads_(threads) {
+          double scale, unsigned threads, RunMemo* memo = nullptr)
+      : problem_(problem), run_(run), sims_(sims), threads_(threads), memo_(memo), scale_(scale) {
     idx_ = residual_samples(problem.runs[run].data->size(), problem.max_residuals_per_run);
     sqrt_w_ = std::sqrt(problem.runs[run].weight / static_cast<double>(std::max<std::size_t>(idx_.size(), 1))) / scale;
     set_num_residuals(static_cast<int>(idx_.size()));
@@ -54,10 +133,11 @@ class RunCost final : public ceres::CostFunction {
   bool Evaluate(double const* const* params, double* residuals, double** jacobians) const override {
     const std::size_t np = problem_.parameters.size();
     const std::vector<double> p(params[0], params[0] + np);
-    if (!residual_at(p.data(), residuals)) return false;
+    if (!base_residual_at(p.data(), residuals)) return false;
     if (jacobians == nullptr || jacobians[0] == nullptr) return true;
-    // Central differences, the 2·P perturbed simulations spread over the threads.
     const std::size_t m = idx_.size();
+    if (memo_ != nullptr && memo_->find_jacobian(p.data(), np, scale_, jacobians[0])) return true;
+    // Central differences, the 2·P perturbed simulations spread over the threads.
     std::vector<std::vector<double>> plus(np, std::vector<double>(m)), minus(plus);
     std::vector<double> step_hi(np), step_lo(np);
     std::vector<char> ok(2 * np, 0);
@@ -77,17 +157,30 @@ class RunCost final : public ceres::CostFunction {
       for (std::size_t i = 0; i < m; ++i)
         jacobians[0][i * np + j] = good ? (plus[j][i] - minus[j][i]) / dx : 0.0;
     }
+    if (memo_ != nullptr) memo_->add_jacobian(p.data(), np, scale_, jacobians[0], m * np);
     return true;
   }
 
+  /// The residuals at a point the solver asks for (through the memo).
+  bool base_residual_at(const double* p, double* out) const {
+    std::vector<double> theta;
+    if (!memo_theta(problem_, p, run_, memo_, sims_, theta)) return false;
+    return residuals_of(theta, out);
+  }
+
+  /// The residuals at a perturbed point of the Jacobian (simulated, not memoised).
   bool residual_at(const double* p, double* out) const {
     ++sims_;
     const SimulationResult sim = simulate_output_error_run(problem_, p, run_);
     if (!sim.ok) return false;
+    return residuals_of(sim.theta, out);
+  }
+
+  bool residuals_of(const std::vector<double>& theta, double* out) const {
     const RunData& d = *problem_.runs[run_].data;
     for (std::size_t i = 0; i < idx_.size(); ++i) {
       const std::size_t k = idx_[i];
-      out[i] = sqrt_w_ * (sim.theta[k] - d.theta[k]);
+      out[i] = sqrt_w_ * (theta[k] - d.theta[k]);
       if (!std::isfinite(out[i])) return false;
     }
     return true;
@@ -100,6 +193,8 @@ class RunCost final : public ceres::CostFunction {
   std::size_t run_;
   std::atomic<long>& sims_;
   unsigned threads_ = 1;
+  RunMemo* memo_ = nullptr;
+  double scale_ = 1.0;
   std::vector<std::size_t> idx_;
   double sqrt_w_ = 1.0;
 };
@@ -146,6 +241,22 @@ std::vector<double> output_error_rms(const OutputErrorProblem& problem, const st
 
 namespace {
 
+/// output_error_rms() through the runs' memos, counting the simulations run.
+std::vector<double> memo_rms(const OutputErrorProblem& problem, const std::vector<double>& p,
+                             unsigned threads, std::vector<RunMemo>& memos,
+                             std::atomic<long>& sims) {
+  std::vector<double> out(problem.runs.size(), std::numeric_limits<double>::quiet_NaN());
+  common::parallel_for(problem.runs.size(), threads, [&](std::size_t i) {
+    std::vector<double> theta;
+    if (!memo_theta(problem, p.data(), i, &memos[i], sims, theta)) return;
+    const RunData& d = *problem.runs[i].data;
+    double ss = 0.0;
+    for (std::size_t k = 0; k < d.size(); ++k) ss += (theta[k] - d.theta[k]) * (theta[k] - d.theta[k]);
+    out[i] = std::sqrt(ss / static_cast<double>(d.size()));
+  });
+  return out;
+}
+
 /// The starts of the fit: the parameters' initial values, then every extra start of the right
 /// size.
 std::vector<std::vector<double>> fit_starts(const OutputErrorProblem& problem,
@@ -166,10 +277,9 @@ std::vector<std::vector<double>> fit_starts(const OutputErrorProblem& problem,
 /// The residual scale: the RMS error at the first start (or the RMS of θ if that simulation
 /// fails), so that the solver's absolute tolerances see a cost of order one.
 double residual_scale(const OutputErrorProblem& problem, const std::vector<double>& start,
-                      unsigned threads, std::atomic<long>& sims) {
+                      unsigned threads, std::vector<RunMemo>& memos, std::atomic<long>& sims) {
   double scale = 0.0;
-  const std::vector<double> rms0 = output_error_rms(problem, start, threads);
-  sims += static_cast<long>(problem.runs.size());
+  const std::vector<double> rms0 = memo_rms(problem, start, threads, memos, sims);
   double ss = 0.0;
   for (double x : rms0) ss += std::isfinite(x) ? x * x : 0.0;
   scale = std::sqrt(ss / static_cast<double>(rms0.size()));
@@ -192,7 +302,8 @@ double residual_scale(const OutputErrorProblem& problem, const std::vector<doubl
 std::vector<double> solve_from_starts(const OutputErrorProblem& problem,
                                       const OutputErrorOptions& options,
                                       const std::vector<std::vector<double>>& starts, double scale,
-                                      std::atomic<long>& sims, OutputErrorResult& res,
+                                      std::vector<RunMemo>& memos, std::atomic<long>& sims,
+                                      OutputErrorResult& res,
                                       std::string& best_report) {
   const std::size_t np = problem.parameters.size();
   double best_cost = std::numeric_limits<double>::infinity();
@@ -207,7 +318,8 @@ std::vector<double> solve_from_starts(const OutputErrorProblem& problem,
     }
     ceres::Problem cp;
     for (std::size_t i = 0; i < problem.runs.size(); ++i) {
-      cp.AddResidualBlock(new RunCost(problem, i, sims, scale, options.threads), nullptr, x.data());
+      cp.AddResidualBlock(new RunCost(problem, i, sims, scale, options.threads, &memos[i]),
+                          nullptr, x.data());
     }
     for (std::size_t j = 0; j < np; ++j) {
       const auto& par = problem.parameters[j];
@@ -235,7 +347,8 @@ std::vector<double> solve_from_starts(const OutputErrorProblem& problem,
 
 /// res.standard_errors at `best` from the stacked Jacobian of every run (NaN where not available).
 void add_standard_errors(const OutputErrorProblem& problem, const OutputErrorOptions& options,
-                         const std::vector<double>& best, double scale, std::atomic<long>& sims,
+                         const std::vector<double>& best, double scale,
+                         std::vector<RunMemo>& memos, std::atomic<long>& sims,
                          OutputErrorResult& res) {
   const std::size_t np = problem.parameters.size();
   // Standard errors from the stacked Jacobian at the solution: cov = σ² (JᵀJ)⁻¹.
@@ -244,7 +357,7 @@ void add_standard_errors(const OutputErrorProblem& problem, const OutputErrorOpt
     std::vector<std::unique_ptr<RunCost>> costs;
     std::size_t m = 0;
     for (std::size_t i = 0; i < problem.runs.size(); ++i) {
-      costs.push_back(std::make_unique<RunCost>(problem, i, sims, scale, 1));
+      costs.push_back(std::make_unique<RunCost>(problem, i, sims, scale, 1, &memos[i]));
       m += costs.back()->residual_count();
     }
     Eigen::MatrixXd jac(m, np);
@@ -327,10 +440,11 @@ OutputErrorResult fit_output_error(const OutputErrorProblem& problem,
   }
   const std::vector<std::vector<double>> starts = fit_starts(problem, options);
   std::atomic<long> sims{0};
-  const double scale = residual_scale(problem, starts.front(), options.threads, sims);
+  std::vector<RunMemo> memos(problem.runs.size());
+  const double scale = residual_scale(problem, starts.front(), options.threads, memos, sims);
   std::string best_report;
   const std::vector<double> best =
-      solve_from_starts(problem, options, starts, scale, sims, res, best_report);
+      solve_from_starts(problem, options, starts, scale, memos, sims, res, best_report);
   if (best.empty()) {
     res.message = "no start gave a usable solution (simulation failed for every start)";
     res.simulations = sims;
@@ -338,8 +452,8 @@ OutputErrorResult fit_output_error(const OutputErrorProblem& problem,
   }
   res.values = best;
   res.message = best_report;
-  add_standard_errors(problem, options, best, scale, sims, res);
-  res.run_rms = output_error_rms(problem, best, options.threads);
+  add_standard_errors(problem, options, best, scale, memos, sims, res);
+  res.run_rms = memo_rms(problem, best, options.threads, memos, sims);
   double ss = 0.0, wsum = 0.0;
   bool all = true;
   for (std::size_t i = 0; i < res.run_rms.size(); ++i) {

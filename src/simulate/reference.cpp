@@ -47,6 +47,8 @@ SampledReference::SampledReference(std::vector<double> t_s, std::vector<double> 
     throw Error("expected t and r of equal length >= 2", {}, 0, "r");
   }
   const std::size_t n = t_.size();
+  const double span = t_.back() - t_.front();
+  inv_mean_dt_ = span > 0.0 ? static_cast<double>(n - 1) / span : 0.0;
   // A jump is a step much larger than the typical (90th percentile) step of the signal.
   std::vector<double> steps(n - 1);
   for (std::size_t k = 0; k + 1 < n; ++k) steps[k] = std::abs(r_[k + 1] - r_[k]);
@@ -76,11 +78,31 @@ SampledReference::SampledReference(std::vector<double> t_s, std::vector<double> 
   }
 }
 
+std::size_t SampledReference::upper_index(double t_s) const noexcept {
+  // The first k with t_[k] > t_s (std::upper_bound), t_.front() < t_s < t_.back(): guessed from
+  // the mean sample period and walked to (a uniformly sampled run: at most a step or two), else
+  // the binary search. The simulators ask once per step, so this is their reference's cost.
+  const std::size_t n = t_.size();
+  const double g = (t_s - t_.front()) * inv_mean_dt_;
+  if (g >= 0.0 && g < static_cast<double>(n)) {
+    std::size_t k = std::min(n - 1, static_cast<std::size_t>(g) + 1);
+    for (int walk = 0; walk < 4; ++walk) {
+      if (t_[k] <= t_s) {
+        ++k;  // k < n: t_.back() > t_s
+      } else if (t_[k - 1] > t_s) {
+        --k;  // k > 1: t_.front() < t_s
+      } else {
+        return k;
+      }
+    }
+  }
+  return static_cast<std::size_t>(std::upper_bound(t_.begin(), t_.end(), t_s) - t_.begin());
+}
+
 ReferenceSample SampledReference::at(double t_s) const {
   if (t_s <= t_.front()) return {r_.front(), 0.0, 0.0};
   if (t_s >= t_.back()) return {r_.back(), 0.0, 0.0};
-  const auto it = std::upper_bound(t_.begin(), t_.end(), t_s);
-  const std::size_t k1 = static_cast<std::size_t>(it - t_.begin());
+  const std::size_t k1 = upper_index(t_s);
   const std::size_t k0 = k1 - 1;
   if (jump_before_[k1]) return {r_[k0], 0.0, 0.0};  // held until the jump at t_[k1]
   const double h = t_[k1] - t_[k0];

@@ -1,6 +1,8 @@
 #include "alphainv/simulate/reference.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -53,6 +55,28 @@ TEST(Reference, SampledFollowsSmoothSignalAndKeepsJumps) {
   EXPECT_DOUBLE_EQ(step.at(0.4995).r, -1.0);
   EXPECT_DOUBLE_EQ(step.at(0.5).r, 1.0);
   EXPECT_THROW(SampledReference({0.0}, {1.0}), std::exception);
+}
+
+TEST(Reference, SampledFindsTheSegmentOnIrregularTimes) {
+  // The segment is guessed from the mean sample period and walked to, else searched: on samples
+  // whose spacing grows 30-fold (the guess is off by hundreds of samples) and on a uniform grid,
+  // r at each sample is that sample's and between samples it follows the signal.
+  for (const bool uniform : {false, true}) {
+    std::vector<double> t, r;
+    for (int k = 0; k <= 600; ++k) {
+      const double x = k / 600.0;
+      t.push_back(uniform ? 3.0 * x : 3.0 * (0.1 * x + 0.9 * x * x * x));
+      r.push_back(std::sin(2.0 * t.back()));
+    }
+    const SampledReference s(t, r);
+    double worst = 0.0;
+    for (std::size_t k = 1; k + 1 < t.size(); ++k) {
+      EXPECT_EQ(s.at(t[k]).r, r[k]) << k;
+      const double mid = 0.5 * (t[k] + t[k + 1]);
+      worst = std::max(worst, std::abs(s.at(mid).r - std::sin(2.0 * mid)));
+    }
+    EXPECT_LT(worst, 2e-5) << (uniform ? "uniform" : "irregular");
+  }
 }
 
 }  // namespace

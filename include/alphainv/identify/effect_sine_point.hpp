@@ -13,6 +13,7 @@
 
 #include <complex>
 #include <cstddef>
+#include <vector>
 
 #include "alphainv/data/dataset.hpp"
 #include "alphainv/model/effects.hpp"
@@ -37,5 +38,16 @@ LocalLinearPoint local_linear_point_from_input(double freq_hz, std::complex<doub
 /// `physical`) when a fit fails.
 LocalLinearPoint sine_point_with_effects(const RunData& run, IndexRange window, double freq_hz,
                                          double kp, double sample_period_s, const Effects& effects);
+
+/// The same with θ̇ of the whole run given (sine_point_theta_dot(run), which does not depend on
+/// the effects): for callers that take the point of one run with many trial effects. `theta_dot`
+/// is read only when a torque-like effect or a disturbance is on (the point is not `physical`
+/// when it is then not of the run's length).
+LocalLinearPoint sine_point_with_effects(const RunData& run, IndexRange window, double freq_hz,
+                                         double kp, double sample_period_s, const Effects& effects,
+                                         const std::vector<double>& theta_dot);
+
+/// θ̇ of `run` as sine_point_with_effects() takes it: local quadratic fits over ±10 ms.
+std::vector<double> sine_point_theta_dot(const RunData& run);
 
 }  // namespace alphainv

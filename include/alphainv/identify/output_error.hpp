@@ -77,7 +77,7 @@ struct OutputErrorResult {
   double rms = std::numeric_limits<double>::quiet_NaN();  ///< weighted RMS of θ − θ_sim [position unit]
   std::vector<double> run_rms;         ///< RMS of θ − θ_sim per run over all samples
   int iterations = 0;                  ///< summed over starts
-  long simulations = 0;                ///< run simulations done
+  long simulations = 0;                ///< run simulations done (a point asked for again is not re-simulated)
 
   /// True when a start gave a solution and every run simulates at it (`ok`).
   bool usable() const { return ok; }

@@ -3,6 +3,7 @@
 /// Reference trajectories r(t) with their first two derivatives, for simulation. The α-invariant
 /// needs v̈ and so r̈ (eq. (44)). Not real-time (virtual calls, some allocate on construction).
 
+#include <cstddef>
 #include <memory>
 #include <vector>
 
@@ -55,8 +56,12 @@ class SampledReference final : public Reference {
   void discontinuities(double t0_s, double t1_s, std::vector<double>& out) const override;
 
  private:
+  /// The first k with t_[k] > t_s, for t_.front() < t_s < t_.back().
+  std::size_t upper_index(double t_s) const noexcept;
+
   std::vector<double> t_, r_, slope_;
   std::vector<char> jump_before_;  ///< jump_before_[k]: r jumps between samples k−1 and k
+  double inv_mean_dt_ = 0.0;       ///< (samples − 1) / duration [1/s]: the index guess
 };
 
 }  // namespace alphainv
