@@ -57,6 +57,11 @@ nlohmann::json result_json(const DiagnoseResult& res) {
   j["effects"] = names;
   // Every named effect in order with its parameters and the error over all runs after its round.
   nlohmann::json named = nlohmann::json::array();
+  if (res.disturbance.named) {  // located before the rounds
+    named.push_back({{"effect", effect_name(EffectKind::kExternalDisturbance)},
+                     {"parameters", parameters_json(res.effects, EffectKind::kExternalDisturbance)},
+                     {"error_after", num(res.disturbance.error_after)}});
+  }
   for (const DiagnoseRound& rd : res.rounds) {
     if (rd.named == EffectKind::kNone) continue;
     named.push_back({{"effect", effect_name(rd.named)},
@@ -71,12 +76,28 @@ nlohmann::json result_json(const DiagnoseResult& res) {
   for (const UnexplainedPart& u : res.verdict.unexplained)
     unexplained.push_back({{"where", u.where}, {"size", num(u.size)}, {"ratio", num(u.ratio)}});
   j["unexplained"] = unexplained;
+  // The external_disturbance stage: the intervals located in time (the series: disturbance.csv).
+  if (res.disturbance.tried) {
+    const DisturbanceFinding& f = res.disturbance;
+    nlohmann::json iv = nlohmann::json::array();
+    for (std::size_t i = 0; i < f.runs.size(); ++i) {
+      for (const DisturbanceInterval& x : f.runs[i].intervals)
+        iv.push_back({{"run", f.run_names[i]}, {"start_s", num(x.start_s)}, {"end_s", num(x.end_s)},
+                      {"level_v", num(x.level_v)}});
+    }
+    nlohmann::json recorded = nlohmann::json::array();
+    for (std::size_t i = 0; i < f.recorded.size(); ++i)
+      if (f.recorded[i]) recorded.push_back(f.run_names[i]);
+    j["disturbance"] = {{"named", f.named}, {"message", f.message}, {"rms_v", num(f.rms_v)},
+                        {"error_before", num(f.error_before)}, {"error_after", num(f.error_after)},
+                        {"intervals", iv}, {"recorded_disturbance_v", recorded}};
+  }
   return j;
 }
 
 /// Residual figures: θ − θ_sim before and after for the worst runs (at most 3).
 std::string residual_figures(const fs::path& out, const std::vector<DiagnoseRun>& runs,
-                             const DiagnoseResult& r, const SimulationOptions& sim,
+                             const std::vector<DiagnoseRun>& runs_after, const DiagnoseResult& r, const SimulationOptions& sim,
                              const Effects& effects_before, const std::string& unit,
                              std::string& warning) {
   const fs::path dir = out / "plots";
@@ -89,7 +110,7 @@ std::string residual_figures(const fs::path& out, const std::vector<DiagnoseRun>
             [&](std::size_t a, std::size_t b) { return r.before.run_rms[a] > r.before.run_rms[b]; });
   if (order.size() > 3) order.resize(3);
   const auto before = simulate_diagnosed(runs, effects_before, ModelScales{}, sim, 0);
-  const auto after = simulate_diagnosed(runs, r.effects, r.scales, sim, 0, r.alpha);
+  const auto after = simulate_diagnosed(runs_after, r.effects, r.scales, sim, 0, r.alpha);
   std::ostringstream md;
   md << "\n## Residual before and after\n\n";
   int n = 0;
@@ -170,7 +191,8 @@ int run_diagnose(const DiagnoseCommandOptions& o) {
   if (!o.out_dir.empty()) {
     try {
       folder.emplace(o.out_dir,
-                     std::initializer_list<const char*>{"model.json", "report.md", "plots"});
+                     std::initializer_list<const char*>{"model.json", "report.md", "plots",
+                                                        "disturbance.csv"});
     } catch (const Error& e) {
       std::fprintf(stderr, "omni_fit diagnose: -o: %s\n", e.what());
       return 2;
@@ -223,10 +245,16 @@ int run_diagnose(const DiagnoseCommandOptions& o) {
       apply_diagnosis(m, res);
       write_model_file(out / "model.json", m);
       std::string warning;
+      // (after: with the located disturbance known, as diagnose simulated it)
+      std::vector<RunData> with_d;
+      const std::vector<DiagnoseRun> runs_after = with_located_disturbance(runs, res.disturbance, with_d);
       const std::string figs =
           o.no_plots ? std::string()
-                     : residual_figures(out, runs, res, dopt.simulation, effects_before,
+                     : residual_figures(out, runs, runs_after, res, dopt.simulation, effects_before,
                                         ds.position_unit, warning);
+      if (res.disturbance.named) {
+        write_text_atomic(out / "disturbance.csv", disturbance_csv(res.disturbance, runs));
+      }
       if (!warning.empty() && !o.quiet) std::fprintf(stderr, "omni_fit diagnose: %s\n", warning.c_str());
       write_text_atomic(out / "report.md",
                         diagnose_report_markdown(res, runs, o.dataset_dir, model_source) + figs);

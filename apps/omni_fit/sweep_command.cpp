@@ -165,12 +165,22 @@ int run_sweep(const SweepCommandOptions& o) {
     ExperimentPlanOptions plan = paper_plan_options(c.seed);
     plan.plant.effects.coulomb_v = 0.0;  // only the hidden effect
     apply(c, plan.plant.effects);
+    // A torque of time (external_disturbance) is hidden as omni_gen's pulses with their column
+    // left out: the magnitude is the pulses' amplitude.
+    const bool of_time = effect_spec(c.effect).role == EffectRole::kTimeSeries;
+    if (of_time) {
+      plan.plant.effects.disturbance_rms_v = 0.0;
+      plan.disturbance_pulses.amplitude_v = hidden_magnitude(c);
+    }
     plan.plant.measurement.noise_std_rad = c.noise_std_rad;
     const auto poses = paper_sine_poses();
     const PoseSetPoint pose = poses[static_cast<std::size_t>(c.seed % poses.size())];
     plan.sine_poses = {pose};
     plan.square_poses = {pose};
-    const GeneratedDataset gen = generate_dataset(make_experiment_plan(plan));
+    GeneratedDataset gen = generate_dataset(make_experiment_plan(plan));
+    if (of_time) {
+      for (RunData& run : gen.runs) run.extra_columns.erase("disturbance_v");
+    }
     DiagnoseOptions dopt;
     dopt.threads = 1;
     results[ci] = diagnose_dataset(gen.index, gen.runs, dopt);
@@ -216,7 +226,13 @@ int run_sweep(const SweepCommandOptions& o) {
     gen_cmd.precision(6);
     gen_cmd << "omni_gen paper -o DIR --seed " << c.seed << " --pose " << c.seed % poses.size()
             << (hidden.coulomb_v > 0.0 ? "" : " --no-coulomb") << " --noise-std " << c.noise_std_rad;
-    for (EffectKind k : active_effects(hidden)) gen_cmd << " --effect " << effect_spec_text(hidden, k);
+    for (EffectKind k : active_effects(hidden)) {
+      if (effect_spec(k).role == EffectRole::kTimeSeries) {
+        gen_cmd << " --disturbance-pulses " << magnitude << " --unrecorded-disturbance";
+      } else {
+        gen_cmd << " --effect " << effect_spec_text(hidden, k);
+      }
+    }
     jcases.push_back({{"effect", effect_name(c.effect)}, {"magnitude", magnitude},
                       {"hidden", effects_text(hidden)}, {"generate", gen_cmd.str()},
                       {"noise_std_rad", c.noise_std_rad}, {"seed", c.seed},

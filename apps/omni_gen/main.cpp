@@ -76,6 +76,7 @@ struct PaperArgs {
   double quantisation_rad = std::nan("");
   bool no_coulomb = false;
   bool truth_columns = false;
+  bool unrecorded_disturbance = false;  // --disturbance-pulses act, their column is not written
   int pose = -1;  // -1: the paper's poses; K: only sine pose K (sine and square runs there)
   std::string disturbance_pulses;  // "AMPLITUDE_V[,WIDTH_S[,PERIOD_S]]"; empty: none
 };
@@ -136,6 +137,11 @@ int run_paper(const PaperArgs& args, const std::string& cmd) {
       Effects one;
       apply_effect_spec(spec, one, option);
       const EffectKind kind = effect_kind_from_name(spec.substr(0, spec.find_first_of(":=")));
+      if (effect_spec(kind).role == EffectRole::kTimeSeries) {
+        return fail(option, "a torque of time, not a plant parameter: generate it with "
+                            "--disturbance-pulses AMPLITUDE_V[,WIDTH_S[,PERIOD_S]] "
+                            "--unrecorded-disturbance (the pulses act, their column is not written)");
+      }
       if (kind == EffectKind::kCoulombFriction && args.no_coulomb) {
         return fail(option, "contradicts --no-coulomb");
       }
@@ -153,7 +159,11 @@ int run_paper(const PaperArgs& args, const std::string& cmd) {
   }
 
   const auto t0 = std::chrono::steady_clock::now();
-  const GeneratedDataset data = generate_dataset(plan);
+  GeneratedDataset data = generate_dataset(plan);
+  if (args.unrecorded_disturbance) {
+    // The pulses acted on the plant; the dataset does not know them (its truth does).
+    for (RunData& run : data.runs) run.extra_columns.erase("disturbance_v");
+  }
   const auto t1 = std::chrono::steady_clock::now();
   try {
     write_dataset(args.out_dir, data.index, data.runs);
@@ -248,6 +258,10 @@ int main(int argc, char** argv) {
                    "long (default 0.1), one every PERIOD_S (default 1) from 0.5 s plus a per-run "
                    "shift; e.g. 0.05 or 0.05,0.1,1")
       ->type_name("AMPLITUDE_V[,WIDTH_S[,PERIOD_S]]");
+  paper->add_flag("--unrecorded-disturbance", args.unrecorded_disturbance,
+                  "with --disturbance-pulses: the pulses act on the plant but their disturbance_v "
+                  "column is not written (an external_disturbance the dataset does not know; "
+                  "dataset.json's truth has them)");
   paper->add_flag("--no-coulomb", args.no_coulomb, "turn the bundled Coulomb friction off");
   paper->add_flag("--truth-columns", args.truth_columns,
                   "add the columns theta_true, theta_dot_true, v_eff, alpha_true, c_true, "

@@ -28,6 +28,7 @@ const char* role_name(EffectRole r) {
     case EffectRole::kTorque: return "torque";
     case EffectRole::kInputMap: return "input_map";
     case EffectRole::kDelay: return "delay";
+    case EffectRole::kTimeSeries: return "time_series";
   }
   return "none";
 }

@@ -64,6 +64,56 @@ const char* termination_name(DiagnoseTermination termination) {
   return "failure";
 }
 
+std::string disturbance_markdown(const DisturbanceFinding& f) {
+  if (!f.tried) return {};
+  std::ostringstream s;
+  s << "## External disturbance (a torque of time)\n\nThe equation-error torque residual of the "
+       "model given, averaged over time windows; windows far outside its spread (steps, pulses), "
+       "then checked by simulating every run with them as a known disturbance: **"
+    << (f.named ? "external_disturbance named" : "not named") << "**: " << f.message << ".\n\n";
+  std::size_t recorded = 0;
+  for (bool b : f.recorded) recorded += b;
+  if (recorded > 0) {
+    s << "The dataset records a `disturbance_v` column in " << recorded << " of " << f.recorded.size()
+      << " runs: a known input, used in every simulation; what is located here is beyond it.\n\n";
+  }
+  if (f.intervals > 0) {
+    if (f.named) {
+      s << "The series d̂(t) is in `disturbance.csv` (columns run, t, disturbance_v [command "
+           "unit]): added to a run as its `disturbance_v` column it is a known input of "
+           "`simulate`/`validate` (plant_input.hpp).\n\n";
+    }
+    s << "| run | from [s] | to [s] | level d̂ | × spread |\n|---|---|---|---|---|\n";
+    std::size_t shown = 0;
+    for (std::size_t i = 0; i < f.runs.size(); ++i) {
+      for (const DisturbanceInterval& iv : f.runs[i].intervals) {
+        if (++shown > 40) break;
+        s << "| " << f.run_names[i] << " | " << fmt(iv.start_s, "%.3f") << " | "
+          << fmt(iv.end_s, "%.3f") << " | " << fmt(iv.level_v) << " | " << fmt(iv.spreads, "%.1f")
+          << " |\n";
+      }
+    }
+    if (shown > 40) s << "\n(" << f.intervals << " intervals in all; every one in disturbance.csv)\n";
+    s << "\n";
+  }
+  return s.str();
+}
+
+std::string disturbance_csv(const DisturbanceFinding& f, const std::vector<DiagnoseRun>& runs) {
+  std::ostringstream s;
+  s << "run,t,disturbance_v\n";
+  char b[96];
+  for (std::size_t i = 0; i < f.runs.size() && i < runs.size(); ++i) {
+    if (f.runs[i].intervals.empty() || runs[i].data == nullptr) continue;
+    const std::vector<double>& t = runs[i].data->t;
+    for (std::size_t k = 0; k < t.size() && k < f.runs[i].d_v.size(); ++k) {
+      std::snprintf(b, sizeof b, ",%.9g,%.9g\n", t[k], f.runs[i].d_v[k]);
+      s << runs[i].name << b;
+    }
+  }
+  return s.str();
+}
+
 std::string effect_parameters_text(const Effects& e, EffectKind kind) {
   std::string s;
   for (const auto& par : effect_parameters(kind)) {
@@ -121,6 +171,7 @@ std::string DiagnoseResult::full_report() const {
   for (const auto& f : before.findings) s << "  - " << f << "\n";
   s << "After:\n";
   for (const auto& f : after.findings) s << "  - " << f << "\n";
+  if (disturbance.tried) s << "External disturbance: " << disturbance.message << "\n";
   if (std::isfinite(noise_floor.rms)) s << "Verdict: " << verdict.text() << "\n";
   return s.str();
 }
@@ -162,6 +213,7 @@ std::string diagnose_report_markdown(const DiagnoseResult& r, const std::vector<
     }
     s << "\n";
   }
+  s << disturbance_markdown(r.disturbance);
   s << "## The gap before and after\n\nRMS of θ − θ_sim over all runs: **" << fmt(r.error_before)
     << " → " << fmt(r.error_after) << "**";
   if (r.error_before > 0) s << " (" << fmt(100.0 * (1.0 - r.error_after / r.error_before), "%.1f") << " % less)";

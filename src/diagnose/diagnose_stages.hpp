@@ -20,6 +20,7 @@
 /// includes it. The namespace is not alphainv::detail, whose helpers (detail::num of
 /// field_checks.hpp) would hide this file's own.
 
+#include <chrono>
 #include <array>
 #include <cstddef>
 #include <limits>
@@ -231,6 +232,8 @@ class CandidateFitter {
 
   /// `none`'s training RMS, which the other candidates' fits are held against (NaN: not yet).
   void set_none_training_rms(double rms) { none_training_rms_ = rms; }
+  /// none's RMS over all runs: a candidate below (1 − significance) × it is not hopeless.
+  void set_none_error_after(double rms) { none_error_after_ = rms; }
 
   const std::vector<DiagnoseRun>& runs_in() const { return runs_in_; }
   const PreparedRuns& prepared() const { return prepared_; }
@@ -243,6 +246,7 @@ class CandidateFitter {
   const RoundModel& model_;
   const DiagnoseOptions& options_;
   double none_training_rms_;
+  double none_error_after_;
 };
 
 /// A searched candidate waiting for its output-error fit (fit_searched()).
@@ -314,5 +318,17 @@ DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const Prep
                              const std::vector<EffectKind>& catalogue,
                              const DiagnoseOptions& options, CandidateScore* settled,
                              std::string* failure);
+
+/// The rounds of diagnose() after the options and runs are checked: the external_disturbance
+/// stage first (when `catalogue` has it), then the rounds and the verdict; returns `res` filled.
+DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_given,
+                                         const std::vector<EffectKind>& catalogue,
+                                         const DiagnoseOptions& opt, DiagnoseResult res,
+                                         std::chrono::steady_clock::time_point t_start);
+
+/// The external_disturbance stage (DisturbanceFinding, diagnose.hpp; disturbance_stage.cpp): d̂
+/// located with `model` in every run and checked by simulation (with_located_disturbance()).
+DisturbanceFinding locate_external_disturbance(const std::vector<DiagnoseRun>& runs,
+                                               const RoundModel& model, const DiagnoseOptions& opt);
 
 }  // namespace alphainv::diagnose_detail

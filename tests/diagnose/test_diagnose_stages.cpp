@@ -303,5 +303,79 @@ TEST(DiagnoseStages, ChooseTakesTheSimplerWithinFivePercentAndRefusesASubTickDel
   EXPECT_FALSE(choose_winner(fitter, reid, d).none_fitted);
 }
 
+/// The sweep's one-pose dataset (seed 6) with omni_gen's ±0.05 V pulses (0.1 s every 1 s), its
+/// disturbance_v column kept (`recorded`) or left out.
+struct PulseCase {
+  GeneratedDataset g;
+  GeneratedDataset truth;  ///< the same with the column: the pulses' times
+  DatasetFit fit;
+  std::vector<DiagnoseRun> runs;
+  DiagnoseOptions opt;
+};
+
+PulseCase pulse_case(bool recorded) {
+  PulseCase c;
+  ExperimentPlanOptions plan = paper_plan_options(6);
+  plan.plant.effects.coulomb_v = 0.0;
+  plan.disturbance_pulses.amplitude_v = 0.05;
+  const auto poses = paper_sine_poses();
+  plan.sine_poses = {poses[6]};
+  plan.square_poses = plan.sine_poses;
+  c.truth = generate_dataset(make_experiment_plan(plan));
+  c.g = c.truth;
+  if (!recorded) {
+    for (RunData& r : c.g.runs) r.extra_columns.erase("disturbance_v");
+  }
+  FitPipelineOptions fo;
+  fo.run_validation = false;
+  c.fit = fit_dataset(c.g.index, c.g.runs, fo);
+  c.runs = diagnose_runs(c.g.index, c.g.runs, c.fit);
+  c.opt.simulation = c.fit.simulation;
+  return c;
+}
+
+TEST(DiagnoseStages, ExternalDisturbanceLocatesUnrecordedPulsesInTime) {
+  const PulseCase c = pulse_case(false);
+  const PreparedRuns prepared = prepare_runs(c.runs, c.opt);
+  const DisturbanceFinding f =
+      locate_external_disturbance(c.runs, initial_model(c.runs, prepared), c.opt);
+  ASSERT_TRUE(f.tried);
+  EXPECT_TRUE(f.named) << f.message;
+  EXPECT_LT(f.error_after, 0.9 * f.error_before) << f.message;
+  for (bool r : f.recorded) EXPECT_FALSE(r);
+  // The pulses of the truth after the runs' first second: most have an interval starting within
+  // 10 ms (not those within 0.5 s after a square run's jumps, which are left out), with its
+  // level within 25 % of the pulse's.
+  std::size_t pulses = 0, found = 0, level_ok = 0;
+  for (std::size_t i = 0; i < c.truth.runs.size(); ++i) {
+    const RunData& d = c.truth.runs[i];
+    const std::vector<double>& col = *d.column("disturbance_v");
+    for (std::size_t k = 1; k < d.size(); ++k) {
+      if (col[k] == 0.0 || col[k - 1] != 0.0 || d.t[k] < 1.0) continue;
+      ++pulses;
+      for (const DisturbanceInterval& iv : f.runs[i].intervals) {
+        if (std::abs(iv.start_s - d.t[k]) < 0.01) {
+          ++found;
+          level_ok += std::abs(iv.level_v / col[k] - 1.0) < 0.25;
+        }
+      }
+    }
+  }
+  ASSERT_GT(pulses, 20u);
+  EXPECT_GE(found, pulses * 6 / 10) << found << " of " << pulses;
+  EXPECT_GE(level_ok, found * 8 / 10) << level_ok << " of " << found;
+  // Not many intervals where there is no pulse.
+  EXPECT_LE(f.intervals, pulses + pulses / 5);
+}
+
+TEST(DiagnoseStages, ExternalDisturbanceRecordedIsKnownAndNothingIsLeftToLocate) {
+  const PulseCase c = pulse_case(true);
+  const PreparedRuns prepared = prepare_runs(c.runs, c.opt);
+  const DisturbanceFinding f =
+      locate_external_disturbance(c.runs, initial_model(c.runs, prepared), c.opt);
+  for (bool r : f.recorded) EXPECT_TRUE(r);
+  EXPECT_FALSE(f.named) << f.message;
+}
+
 }  // namespace
 }  // namespace alphainv::diagnose_detail

@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "alphainv/error.hpp"
+#include "alphainv/model/plant_input.hpp"
 
 namespace alphainv {
 namespace {
@@ -93,10 +94,11 @@ TEST(Effects, ModellingChoicesAreListedOnlyWhenAsked) {
   EXPECT_EQ(std::string(with[0].name), "coulomb_v");
   EXPECT_EQ(with[1].member, &Effects::coulomb_smoothing_rad_s);
   EXPECT_EQ(effect_parameters(EffectKind::kCoulombFriction).size(), 1u);
-  // Each friction term has its own smoothing ε; no other effect has a modelling choice.
+  // Each friction term has its own smoothing ε, the external disturbance its window; no other
+  // effect has a modelling choice.
   const std::set<EffectKind> with_smoothing = {
       EffectKind::kCoulombFriction, EffectKind::kStribeckFriction, EffectKind::kAsymmetricFriction,
-      EffectKind::kPositionDependentFriction};
+      EffectKind::kPositionDependentFriction, EffectKind::kExternalDisturbance};
   for (EffectKind k : kAllEffectKinds) {
     EXPECT_EQ(effect_parameters(k, true).size(),
               effect_parameters(k).size() + (with_smoothing.count(k) ? 1u : 0u))
@@ -105,7 +107,7 @@ TEST(Effects, ModellingChoicesAreListedOnlyWhenAsked) {
 }
 
 TEST(Effects, TheKindsAreCountedByTheEnumSentinel) {
-  EXPECT_EQ(kEffectKindCount, 11u);
+  EXPECT_EQ(kEffectKindCount, 12u);
   EXPECT_EQ(kAllEffectKinds.size(), kEffectCatalogue.size());
   for (std::size_t k = 0; k < kEffectKindCount; ++k) {
     EXPECT_EQ(kAllEffectKinds[k], static_cast<EffectKind>(k));
@@ -243,9 +245,9 @@ TEST(EffectTable, EntriesAreInKindOrderWithUniqueNamesAndMembers) {
     EXPECT_TRUE(s.active(e)) << s.name;
     EXPECT_EQ(active_effects(e), std::vector<EffectKind>{s.kind});
   }
-  // 22 members of Effects, each in exactly one entry.
-  EXPECT_EQ(members.size(), 22u);
-  EXPECT_EQ(sizeof(Effects), 22 * sizeof(double));
+  // 24 members of Effects, each in exactly one entry.
+  EXPECT_EQ(members.size(), 24u);
+  EXPECT_EQ(sizeof(Effects), 24 * sizeof(double));
 }
 
 TEST(EffectTable, SearchBoundsGridsAndStepsFollowTheDataScales) {
@@ -460,6 +462,18 @@ TEST(EffectTable, BadSpecsNameTheOptionAndSayWhy) {
     EXPECT_EQ(err.field(), "--effect time_delay:delay_s");
   }
   EXPECT_NE(message("coulomb_friction").find("expected NAME:PARAM=VALUE"), std::string::npos);
+}
+
+TEST(Effects, AnExternalDisturbanceIsATorqueOfTimeNotOfTheState) {
+  Effects e;
+  apply_effect_spec("external_disturbance=0.01", e);
+  EXPECT_TRUE(effect_active(e, EffectKind::kExternalDisturbance));
+  EXPECT_EQ(effect_spec(EffectKind::kExternalDisturbance).role, EffectRole::kTimeSeries);
+  EXPECT_EQ(e.disturbance_window_s, 0.05);
+  // No term of the state: the series enters the one plant input as the known d(t).
+  EXPECT_EQ(effect_torque(e, 0.03, 0.5), 0.0);
+  EXPECT_EQ(plant_torque(e, 1.0, 0.03, 0.5, KnownInputs{0.02, true}), 0.02);
+  EXPECT_EQ(plant_input(e, 1.0, 0.1, 0.03, 0.5, KnownInputs{0.02, true}), 0.1 + 0.02);
 }
 
 }  // namespace

@@ -3,6 +3,9 @@
 /// The diagnose workflow: where a model's simulation and the measurement disagree, which physical
 /// effect of the catalogue (effects.hpp) explains the gap, and how much adding it shrinks it.
 ///
+/// 0. A torque of time (external_disturbance, DisturbanceFinding): located in time windows of
+///    every run's equation-error torque residual, checked by simulation, and when named known
+///    to everything after (the runs get d̂ as their disturbance_v column).
 /// 1. Every run is simulated under its own controller with the model; the residual θ − θ_sim is
 ///    located per run, per frequency and over the state (velocity reversals, θ, |v|, α, time
 ///    after reference jumps) and the concentrations are said in words.
@@ -42,6 +45,7 @@
 #include <string>
 #include <vector>
 
+#include "alphainv/diagnose/external_disturbance.hpp"
 #include "alphainv/diagnose/verdict.hpp"
 #include "alphainv/model/controller.hpp"
 #include "alphainv/data/dataset.hpp"
@@ -148,6 +152,27 @@ struct DiagnoseRound {
   double error_after = std::numeric_limits<double>::quiet_NaN();
 };
 
+/// The external_disturbance stage (before the rounds, when the candidates include it): a torque
+/// of time located in every run's equation-error torque residual with the model given
+/// (external_disturbance.hpp), then checked by simulating every run with d̂ added to its
+/// `disturbance_v` column (a known input, plant_input.hpp). Named when some run has intervals and
+/// the RMS of θ − θ_sim over all runs drops below (1 − significance) × before; the rounds then
+/// run with d̂ known.
+struct DisturbanceFinding {
+  bool tried = false;   ///< the candidates include external_disturbance
+  bool named = false;   ///< located, and the error over all runs drops (above)
+  std::string message;  ///< what was found, or why it is not named
+  std::vector<std::string> run_names;       ///< every run's name, in order
+  std::vector<DisturbanceEstimate> runs;    ///< per run (not ok: too short)
+  /// Per run: it records a `disturbance_v` column (a known input the model already takes; the
+  /// estimate is what remains beyond it).
+  std::vector<bool> recorded;
+  double error_before = std::numeric_limits<double>::quiet_NaN();  ///< RMS over all runs
+  double error_after = std::numeric_limits<double>::quiet_NaN();   ///< … with d̂ known
+  double rms_v = 0.0;  ///< RMS of d̂ over the runs with intervals [command unit]
+  std::size_t intervals = 0;  ///< over all runs
+};
+
 /// Why diagnose() stopped (like Ceres' TerminationType).
 enum class DiagnoseTermination {
   kNoneNamed,       ///< usable: the last round named `none` (the model is left as it was then)
@@ -181,6 +206,9 @@ struct DiagnoseResult {
   /// structure remains and how big against it.
   NoiseFloor noise_floor;
   VerdictReport verdict_before, verdict;
+  /// The external_disturbance stage; when named, effects_named starts with it, `effects` has
+  /// its size (disturbance_rms_v), and error_after, `after` and `verdict` are with d̂ known.
+  DisturbanceFinding disturbance;
   double error_before = std::numeric_limits<double>::quiet_NaN();  ///< RMS of θ − θ_sim, all runs
   double error_after = std::numeric_limits<double>::quiet_NaN();
   std::vector<std::size_t> fit_runs;  ///< indices of the runs used to fit and score
@@ -205,6 +233,14 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs, const DiagnoseOpti
 JointModelAtPose diagnosed_model(const JointModelAtPose& base, const Effects& e,
                                  const ModelScales& scales,
                                  const std::optional<AlphaModel>& alpha = std::nullopt);
+
+/// `runs` with the d̂ of `finding` added to each run's `disturbance_v` column (the data copied
+/// into `storage`, which must outlive the result): the runs as diagnose() simulated them after a
+/// named external_disturbance. `runs` as they are when it was not named or `finding` does not
+/// match them (another number of runs or samples).
+std::vector<DiagnoseRun> with_located_disturbance(const std::vector<DiagnoseRun>& runs,
+                                                  const DisturbanceFinding& finding,
+                                                  std::vector<RunData>& storage);
 
 /// Simulates every run with its model changed by diagnosed_model(); returns the simulated θ of
 /// each (empty for a failed run).

@@ -24,4 +24,13 @@ std::string diagnose_report_markdown(const DiagnoseResult& result,
                                      const std::vector<DiagnoseRun>& runs,
                                      const std::string& dataset, const std::string& model_source);
 
+/// The report's section on the external_disturbance stage (Markdown; empty when not tried): what
+/// was located, the intervals (run, from, to, level), the pointer to a recorded `disturbance_v`
+/// column and to disturbance.csv.
+std::string disturbance_markdown(const DisturbanceFinding& finding);
+
+/// The located series d̂ as CSV, "run,t,disturbance_v" and one row per sample of every run with
+/// intervals (`runs`: the runs given to diagnose(), for their names and times).
+std::string disturbance_csv(const DisturbanceFinding& finding, const std::vector<DiagnoseRun>& runs);
+
 }  // namespace alphainv

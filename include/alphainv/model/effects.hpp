@@ -10,6 +10,8 @@
 ///       − σ(θ̇)·(Fc + (Fs − Fc)·exp(−(θ̇/v_s)²))        stribeck_friction
 ///       − σ(θ̇)·(Fc⁺·h⁺ + Fc⁻·h⁻) − (Δb/2)·θ̇·σ(θ̇)       asymmetric_friction
 ///       − σ(θ̇)·max(0, Fc0 + s·θ)                         position_dependent_friction
+///     (+ d(t): a torque of time, not of the state, external_disturbance: per run, the run's
+///      `disturbance_v` column, plant_input.hpp; the table entry carries its size)
 /// with σ(θ̇) = tanh(θ̇/ε) (each friction effect has its own smoothing ε, a modelling choice),
 /// h⁺ = (1 + σ)/2, h⁻ = (1 − σ)/2 (the direction weights), and,
 /// with τ the command delay (time_delay), Z the deadzone Z(v) = sign(v)·max(|v| − d, 0) (deadzone)
@@ -66,6 +68,10 @@ struct Effects {
   double position_coulomb_v = 0.0;  ///< Coulomb level at θ = 0, Fc0 [command unit]
   double position_slope_v_per_rad = 0.0;  ///< its slope along θ, s [command unit/position unit]
   double position_smoothing_rad_s = 1e-3;  ///< its tanh smoothing ε [position unit/s], > 0
+  /// External disturbance: the RMS of the estimated d̂(t) over the runs it was located in
+  /// [command unit] (the series itself is per run: the `disturbance_v` column of plant_input.hpp)
+  double disturbance_rms_v = 0.0;
+  double disturbance_window_s = 0.05;  ///< its windows [s], > 0 (external_disturbance.hpp)
 
   /// Longest delay accepted [s] (delay lines are sized from it).
   static constexpr double kMaxDelayS = 1.0;
@@ -121,6 +127,7 @@ enum class EffectKind {
   kStribeckFriction,
   kAsymmetricFriction,
   kPositionDependentFriction,
+  kExternalDisturbance,
   kCount,  ///< the number of kinds (not a kind): sizes the table
 };
 
@@ -133,6 +140,10 @@ enum class EffectRole {
   kTorque,    ///< a term of n(θ, θ̇), effect_torque()
   kInputMap,  ///< a map of the command before the plant, amplifier()
   kDelay,     ///< the command delay τ: v(t − τ) (delay lines in the simulator and the plant)
+  /// A torque d(t) of time, per run (external_disturbance): no term of effect_torque(); it enters
+  /// plant_input() as the known disturbance d(t) of a run's `disturbance_v` column, which
+  /// diagnose estimates (external_disturbance.hpp) and writes in that form
+  kTimeSeries,
 };
 
 /// The data scales an effect's search is sized by (omni_fit diagnose).
@@ -591,6 +602,21 @@ inline const std::array<EffectSpec, kEffectKindCount> kEffectCatalogue = {{
      },
      detail::start_only_grid, nullptr, nullptr, 0.0, nullptr, {0.02, 0.01}, false,
      EffectKind::kCoulombFriction},
+
+    {EffectKind::kExternalDisturbance, "external_disturbance",
+     "a torque of time, not of the state (steps, pulses): n += d(t), per run, located in time "
+     "windows; the series is the run's disturbance_v column",
+     EffectRole::kTimeSeries,
+     {{{"disturbance_rms_v", &Effects::disturbance_rms_v, "command unit",
+        "RMS of the estimated d(t) over its runs", ParameterCheck::kNonNegative, false,
+        detail::friction_level_bounds, detail::half_start_or_2pc_vmax},
+       {"disturbance_window_s", &Effects::disturbance_window_s, "s",
+        "window of its location in time", ParameterCheck::kPositiveIfActive, true,
+        detail::no_bounds, detail::half_start}}},
+     2, [](const Effects& e) { return e.disturbance_rms_v > 0.0; },
+     // Not searched: located in time after the rounds (diagnose; external_disturbance.hpp). The
+     // sweep hides it as omni_gen's --disturbance-pulses with the column left out.
+     nullptr, detail::start_only_grid, nullptr, nullptr, 0.0, nullptr, {0.05, 0.025}},
 }};
 
 /// The table entry of `kind`.
@@ -611,7 +637,7 @@ inline constexpr std::array<EffectKind, kEffectKindCount> kAllEffectKinds = deta
 
 /// The catalogue name: "none", "coulomb_friction", "offset_torque", "gravity", "cogging",
 /// "time_delay", "saturation", "deadzone", "stribeck_friction", "asymmetric_friction",
-/// "position_dependent_friction".
+/// "position_dependent_friction", "external_disturbance".
 inline const char* effect_name(EffectKind kind) noexcept { return effect_spec(kind).name; }
 
 /// The catalogue's names, comma-separated (for --help and messages); `with_none` adds "none".

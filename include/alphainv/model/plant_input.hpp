@@ -38,7 +38,9 @@ inline double applied_command(const Effects& effects, double delayed_command_v,
 /// disturbance) at time `t_s` [s], position `theta` and velocity `theta_dot`. Real-time safe.
 inline double plant_torque(const Effects& effects, double t_s, double theta, double theta_dot,
                            const KnownInputs& known = {}) noexcept {
-  (void)t_s;  // no effect of effects.hpp depends on time yet
+  // The one torque of time, external_disturbance, is per run: it comes in as known.disturbance_v
+  // (a recorded `disturbance_v` column or diagnose's estimate of it), not from `effects`.
+  (void)t_s;
   const double n = effect_torque(effects, theta, theta_dot);
   return known.disturbance_v != 0.0 ? n + known.disturbance_v : n;
 }

@@ -1,0 +1,81 @@
+#pragma once
+/// \file external_disturbance.hpp
+/// A torque that depends on time, not on the state (the catalogue's `external_disturbance`:
+/// steps and pulses a person or a load applies), located in time from one run's equation-error
+/// torque residual
+///     n̂(t) = (θ̈ + C(α, I)·θ̇)/β̃(α, I) − u(t)          (u of plant_input.hpp, measured θ)
+/// and reported as a time series d̂(t) [command unit], the form of a run's `disturbance_v` column
+/// (docs/dataset-format.md), so that the estimate enters eq. (11) the one way every known
+/// disturbance does (plant_input.hpp's d(t)).
+///
+/// What the state explains first. n̂ is fitted by least squares on the caller's functions of the
+/// state (e.g. 1, tanh(θ̇/ε), θ̇, θ, …: friction, offsets, springs and a misfit of C, β̃ that no
+/// effect has absorbed yet) and only the remainder is located; the fit is repeated once without
+/// the samples of the intervals found, so that pulses do not bend it.
+///
+/// Located. The remainder is averaged over windows of DisturbanceOptions::window_s; a window whose mean is
+/// more than `threshold` robust spreads (1.4826 × the median absolute deviation of the window
+/// means) from the run's median window is active. Runs of active windows of one sign are
+/// intervals; each interval's edges are refined to the sample by a least-squares step (the
+/// split that maximises the cumulative sum of n̂ − baseline − level/2 within a window of the
+/// edge), and its level is the mean of n̂ − baseline over it. What the state explains spreads
+/// over many windows and raises the spread; a pulse or a step sticks out of it.
+/// Time-localised only: when more than `max_active_share` of the windows are active, the
+/// residual is not a disturbance of a few time windows and nothing is returned (the reason says
+/// so). d̂ is n̂'s pulse part, not a fit to the output error: diagnose checks it by simulating the
+/// runs with d̂ as a known disturbance (the error must drop).
+/// Offline.
+
+#include <cstddef>
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace alphainv {
+
+/// Settings of locate_disturbance().
+struct DisturbanceOptions {
+  double window_s = 0.05;        ///< window length of the means [s], > 0
+  double threshold = 6.0;        ///< active: |mean − median| > threshold × robust spread
+  double max_active_share = 0.3; ///< more active windows than this share: not time-localised
+  double min_interval_s = 0.02;  ///< shorter intervals (after refinement) are dropped [s]
+
+  /// Throws alphainv::Error naming the field when a value is out of range.
+  void validate() const;
+};
+
+/// One interval of a disturbance: d̂ = level_v on [start_s, end_s).
+struct DisturbanceInterval {
+  double start_s = 0.0;   ///< [s], the run's time axis
+  double end_s = 0.0;     ///< [s]
+  double level_v = 0.0;   ///< mean of the remainder − baseline over the interval [command unit]
+  double spreads = 0.0;   ///< |level| in robust spreads of the window means
+};
+
+/// What locate_disturbance() found in one run.
+struct DisturbanceEstimate {
+  bool ok = false;         ///< usable: enough windows to judge (≥ 10)
+  std::string message;     ///< why not usable, or why nothing was located (empty otherwise)
+  double baseline_v = std::numeric_limits<double>::quiet_NaN();  ///< median window mean
+  double spread_v = std::numeric_limits<double>::quiet_NaN();    ///< robust spread of them
+  std::size_t windows = 0, active_windows = 0;
+  std::vector<DisturbanceInterval> intervals;  ///< in time order
+  /// d̂ at every sample of the input (0 outside the intervals) [command unit].
+  std::vector<double> d_v;
+  /// RMS of d̂ over the samples [command unit].
+  double rms_v = 0.0;
+};
+
+/// Locates a time-dependent torque in n̂ (file comment). `t_s` strictly increasing, `n_hat_v`
+/// of the same length; `valid[k]` false where n̂ is not known (e.g. the ends of the run, where
+/// θ̈ is one-sided): those samples are left out of the windows (empty: all valid). Throws
+/// alphainv::Error (field "n_hat_v", "valid" or "state_basis[j]") when the lengths differ.
+/// `state_basis`: the functions of the state n̂ is fitted on first, each sampled like t_s (empty:
+/// none; a constant is always fitted through the baseline).
+DisturbanceEstimate locate_disturbance(const std::vector<double>& t_s,
+                                       const std::vector<double>& n_hat_v,
+                                       const std::vector<bool>& valid = {},
+                                       const DisturbanceOptions& options = {},
+                                       const std::vector<std::vector<double>>& state_basis = {});
+
+}  // namespace alphainv

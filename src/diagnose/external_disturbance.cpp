@@ -1,0 +1,246 @@
+#include "alphainv/diagnose/external_disturbance.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Dense>
+
+#include "alphainv/error.hpp"
+#include "alphainv/model/detail/field_checks.hpp"
+
+namespace alphainv {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+double median(std::vector<double> x) {
+  if (x.empty()) return kNaN;
+  const std::size_t h = x.size() / 2;
+  std::nth_element(x.begin(), x.begin() + static_cast<std::ptrdiff_t>(h), x.end());
+  return x[h];
+}
+
+/// One window of the means: samples [first, last) of the run, its mean over the valid ones.
+struct Window {
+  std::size_t first = 0, last = 0;
+  double mean = kNaN;  ///< NaN: fewer than half its samples valid
+};
+
+/// The split s in [lo, hi] (sample indices) that maximises Σ_{k ∈ [s, pivot)} w_k when
+/// `rising` (the interval starts at s) or Σ_{k ∈ [pivot, s)} w_k otherwise (it ends at s), with
+/// w_k = sign·(n̂_k − baseline − level/2): the least-squares position of a step's edge.
+std::size_t refine_edge(const std::vector<double>& n, const std::vector<bool>& valid, double baseline,
+                        double level, std::size_t lo, std::size_t hi, std::size_t pivot, bool rising) {
+  const double sign = level >= 0.0 ? 1.0 : -1.0;
+  auto w = [&](std::size_t k) {
+    return valid[k] ? sign * (n[k] - baseline - 0.5 * level) : 0.0;
+  };
+  std::size_t best = rising ? lo : hi;
+  double best_sum = -std::numeric_limits<double>::infinity();
+  if (rising) {  // Σ_{k=s}^{pivot−1} w_k for s from pivot down to lo
+    double sum = 0.0;
+    for (std::size_t s = pivot; s-- > lo;) {
+      sum += w(s);
+      if (sum > best_sum) best_sum = sum, best = s;
+    }
+  } else {  // Σ_{k=pivot}^{s−1} w_k for s from pivot up to hi
+    double sum = 0.0;
+    for (std::size_t s = pivot; s < hi; ++s) {
+      sum += w(s);
+      if (sum > best_sum) best_sum = sum, best = s + 1;
+    }
+  }
+  return best;
+}
+
+}  // namespace
+
+void DisturbanceOptions::validate() const {
+  detail::require_positive("window_s", window_s);
+  detail::require_positive("threshold", threshold);
+  if (!(max_active_share > 0.0 && max_active_share <= 1.0)) {
+    detail::bad("max_active_share", "a share in (0, 1]", max_active_share);
+  }
+  detail::require_nonnegative("min_interval_s", min_interval_s);
+}
+
+namespace {
+
+/// n − (the least-squares fit of n on `basis` and a constant over the samples `use`).
+std::vector<double> state_remainder(const std::vector<double>& n, const std::vector<bool>& use,
+                                    const std::vector<std::vector<double>>& basis) {
+  if (basis.empty()) return n;
+  std::vector<std::size_t> rows;
+  for (std::size_t k = 0; k < n.size(); ++k) {
+    if (use[k]) rows.push_back(k);
+  }
+  const auto p = static_cast<Eigen::Index>(basis.size() + 1);
+  if (rows.size() < static_cast<std::size_t>(4 * p)) return n;
+  Eigen::MatrixXd x(static_cast<Eigen::Index>(rows.size()), p);
+  Eigen::VectorXd y(static_cast<Eigen::Index>(rows.size()));
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const auto r = static_cast<Eigen::Index>(i);
+    x(r, 0) = 1.0;
+    for (std::size_t j = 0; j < basis.size(); ++j) x(r, static_cast<Eigen::Index>(j + 1)) = basis[j][rows[i]];
+    y(r) = n[rows[i]];
+  }
+  const Eigen::VectorXd b = x.colPivHouseholderQr().solve(y);
+  std::vector<double> out(n.size());
+  for (std::size_t k = 0; k < n.size(); ++k) {
+    double f = b(0);
+    for (std::size_t j = 0; j < basis.size(); ++j) f += b(static_cast<Eigen::Index>(j + 1)) * basis[j][k];
+    out[k] = n[k] - f;
+  }
+  return out;
+}
+
+/// One pass of the location on `n` (the file comment of the header, after the state fit).
+DisturbanceEstimate locate_once(const std::vector<double>& t, const std::vector<double>& n,
+                                const std::vector<bool>& valid, const DisturbanceOptions& o);
+
+}  // namespace
+
+DisturbanceEstimate locate_disturbance(const std::vector<double>& t, const std::vector<double>& n,
+                                       const std::vector<bool>& valid_in,
+                                       const DisturbanceOptions& o,
+                                       const std::vector<std::vector<double>>& basis) {
+  o.validate();
+  for (std::size_t j = 0; j < basis.size(); ++j) {
+    if (basis[j].size() != t.size()) {
+      throw Error("expected as many values as times (" + std::to_string(t.size()) + "), found " +
+                      std::to_string(basis[j].size()),
+                  {}, 0, "state_basis[" + std::to_string(j) + "]");
+    }
+  }
+  if (n.size() != t.size()) {
+    throw Error("expected as many values as times (" + std::to_string(t.size()) + "), found " +
+                    std::to_string(n.size()),
+                {}, 0, "n_hat_v");
+  }
+  if (!valid_in.empty() && valid_in.size() != t.size()) {
+    throw Error("expected as many flags as times (" + std::to_string(t.size()) + "), found " +
+                    std::to_string(valid_in.size()),
+                {}, 0, "valid");
+  }
+  std::vector<bool> valid = valid_in.empty() ? std::vector<bool>(t.size(), true) : valid_in;
+  for (std::size_t k = 0; k < n.size(); ++k) valid[k] = valid[k] && std::isfinite(n[k]);
+  for (const auto& col : basis) {
+    for (std::size_t k = 0; k < n.size(); ++k) valid[k] = valid[k] && std::isfinite(col[k]);
+  }
+  DisturbanceEstimate d = locate_once(t, state_remainder(n, valid, basis), valid, o);
+  if (basis.empty() || d.intervals.empty()) return d;
+  // Again with the state fitted without the intervals' samples (the pulses do not bend it).
+  std::vector<bool> use = valid;
+  for (std::size_t k = 0; k < t.size(); ++k) use[k] = use[k] && d.d_v[k] == 0.0;
+  return locate_once(t, state_remainder(n, use, basis), valid, o);
+}
+
+namespace {
+
+DisturbanceEstimate locate_once(const std::vector<double>& t, const std::vector<double>& n,
+                                const std::vector<bool>& valid, const DisturbanceOptions& o) {
+  DisturbanceEstimate out;
+  out.d_v.assign(t.size(), 0.0);
+
+  // The windows and their means.
+  std::vector<Window> win;
+  for (std::size_t k = 0; k < t.size();) {
+    Window w;
+    w.first = k;
+    const double end = t[k] + o.window_s;
+    double s = 0.0;
+    std::size_t m = 0;
+    while (k < t.size() && t[k] < end) {
+      if (valid[k]) s += n[k], ++m;
+      ++k;
+    }
+    w.last = k;
+    if (2 * m >= w.last - w.first && m > 0) w.mean = s / static_cast<double>(m);
+    win.push_back(w);
+  }
+  std::vector<double> means;
+  for (const Window& w : win) {
+    if (std::isfinite(w.mean)) means.push_back(w.mean);
+  }
+  out.windows = means.size();
+  if (means.size() < 10) {
+    out.message = "fewer than 10 windows of " + std::to_string(o.window_s) + " s with n̂ known";
+    return out;
+  }
+  out.ok = true;
+  out.baseline_v = median(means);
+  std::vector<double> dev;
+  for (double m : means) dev.push_back(std::abs(m - out.baseline_v));
+  out.spread_v = 1.4826 * median(dev);
+  if (!(out.spread_v > 0.0)) {
+    out.message = "the window means do not vary (no spread to judge against)";
+    return out;
+  }
+  const double limit = o.threshold * out.spread_v;
+  std::vector<int> sign(win.size(), 0);
+  for (std::size_t j = 0; j < win.size(); ++j) {
+    if (!std::isfinite(win[j].mean)) continue;
+    const double d = win[j].mean - out.baseline_v;
+    if (std::abs(d) > limit) sign[j] = d > 0 ? 1 : -1, ++out.active_windows;
+  }
+  if (static_cast<double>(out.active_windows) >
+      o.max_active_share * static_cast<double>(out.windows)) {
+    out.message = std::to_string(out.active_windows) + " of " + std::to_string(out.windows) +
+                  " windows stand out: the residual is not confined to a few time windows";
+    out.active_windows = 0;
+    return out;
+  }
+  // Runs of active windows of one sign → intervals, edges refined to the sample.
+  for (std::size_t j = 0; j < win.size();) {
+    if (sign[j] == 0) {
+      ++j;
+      continue;
+    }
+    std::size_t jb = j;
+    while (jb + 1 < win.size() && sign[jb + 1] == sign[j]) ++jb;
+    const std::size_t a = win[j].first, b = win[jb].last;
+    double s = 0.0;
+    std::size_t m = 0;
+    for (std::size_t k = a; k < b; ++k) {
+      if (valid[k]) s += n[k] - out.baseline_v, ++m;
+    }
+    double level = m > 0 ? s / static_cast<double>(m) : 0.0;
+    // The edge lies within one window of the active run's ends.
+    const std::size_t lo = j > 0 ? win[j - 1].first : a;
+    const std::size_t hi = jb + 1 < win.size() ? win[jb + 1].last : b;
+    const std::size_t mid_a = std::min(win[j].last, b), mid_b = std::max(win[jb].first, a);
+    const std::size_t start = refine_edge(n, valid, out.baseline_v, level, lo, hi, mid_a, true);
+    const std::size_t end = refine_edge(n, valid, out.baseline_v, level, lo, hi, mid_b, false);
+    j = jb + 1;
+    if (end <= start) continue;
+    s = 0.0, m = 0;
+    for (std::size_t k = start; k < end; ++k) {
+      if (valid[k]) s += n[k] - out.baseline_v, ++m;
+    }
+    if (m == 0) continue;
+    level = s / static_cast<double>(m);
+    DisturbanceInterval iv;
+    iv.start_s = t[start];
+    iv.end_s = end < t.size() ? t[end] : t.back() + (t.size() > 1 ? t.back() - t[t.size() - 2] : 0.0);
+    if (iv.end_s - iv.start_s < o.min_interval_s) continue;
+    iv.level_v = level;
+    iv.spreads = std::abs(level) / out.spread_v;
+    if (!out.intervals.empty() && out.intervals.back().end_s > iv.start_s) {
+      iv.start_s = out.intervals.back().end_s;  // refined edges of neighbours may overlap
+    }
+    for (std::size_t k = start; k < end; ++k) {
+      if (t[k] >= iv.start_s) out.d_v[k] = level;
+    }
+    out.intervals.push_back(iv);
+  }
+  double ss = 0.0;
+  for (double d : out.d_v) ss += d * d;
+  out.rms_v = std::sqrt(ss / static_cast<double>(out.d_v.size()));
+  if (out.intervals.empty()) out.message = "no window stands out of the spread";
+  return out;
+}
+
+}  // namespace
+
+}  // namespace alphainv

@@ -1,0 +1,130 @@
+#include "alphainv/diagnose/external_disturbance.hpp"
+
+#include <cmath>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "alphainv/error.hpp"
+
+namespace alphainv {
+namespace {
+
+constexpr double kTwoPi = 6.283185307179586476925;
+
+/// 1 kHz samples over `seconds`, n̂ = a 2 Hz sine of the state (0.01) + white noise (0.01).
+void base_signal(double seconds, std::vector<double>& t, std::vector<double>& n, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0.0, 0.01);
+  for (int k = 0; k < static_cast<int>(seconds * 1000); ++k) {
+    t.push_back(1e-3 * k);
+    n.push_back(0.01 * std::sin(kTwoPi * 2.0 * t.back()) + noise(rng));
+  }
+}
+
+/// The functions of the "state" of base_signal (its 2 Hz sine), as a caller passes them.
+std::vector<std::vector<double>> state_of(const std::vector<double>& t) {
+  std::vector<std::vector<double>> b(2, std::vector<double>(t.size()));
+  for (std::size_t k = 0; k < t.size(); ++k) {
+    b[0][k] = std::sin(kTwoPi * 2.0 * t[k]);
+    b[1][k] = std::cos(kTwoPi * 2.0 * t[k]);
+  }
+  return b;
+}
+
+TEST(LocateDisturbance, FindsTwoPulsesWithTheirEdgesAndLevels) {
+  std::vector<double> t, n;
+  base_signal(6.0, t, n, 3);
+  std::vector<double> truth(t.size(), 0.0);
+  for (std::size_t k = 0; k < t.size(); ++k) {
+    if (t[k] >= 1.2305 && t[k] < 1.3805) truth[k] = 0.05;
+    if (t[k] >= 3.5005 && t[k] < 3.6005) truth[k] = -0.04;
+    n[k] += truth[k];
+  }
+  // Without the state fitted, the sine's spread hides the pulses; with it, they stand out.
+  EXPECT_TRUE(locate_disturbance(t, n).intervals.empty());
+  const DisturbanceEstimate d = locate_disturbance(t, n, {}, {}, state_of(t));
+  ASSERT_TRUE(d.ok) << d.message;
+  ASSERT_EQ(d.intervals.size(), 2u);
+  EXPECT_NEAR(d.intervals[0].start_s, 1.231, 0.005);
+  EXPECT_NEAR(d.intervals[0].end_s, 1.381, 0.005);
+  EXPECT_NEAR(d.intervals[0].level_v, 0.05, 0.005);
+  EXPECT_NEAR(d.intervals[1].start_s, 3.501, 0.005);
+  EXPECT_NEAR(d.intervals[1].end_s, 3.601, 0.005);
+  EXPECT_NEAR(d.intervals[1].level_v, -0.04, 0.005);
+  EXPECT_GT(d.intervals[0].spreads, 6.0);
+  // The series: the pulses' samples carry their level, every other sample 0.
+  double err = 0.0, ref = 0.0;
+  for (std::size_t k = 0; k < t.size(); ++k) err += std::pow(d.d_v[k] - truth[k], 2), ref += truth[k] * truth[k];
+  EXPECT_LT(std::sqrt(err / ref), 0.2);
+  EXPECT_NEAR(d.rms_v, std::sqrt(ref / static_cast<double>(t.size())), 0.002);
+}
+
+TEST(LocateDisturbance, FindsAStepThatLastsToTheEnd) {
+  std::vector<double> t, n;
+  base_signal(5.0, t, n, 5);
+  for (std::size_t k = 0; k < t.size(); ++k) {
+    if (t[k] >= 4.2125) n[k] -= 0.03;
+  }
+  const DisturbanceEstimate d = locate_disturbance(t, n, {}, {}, state_of(t));
+  ASSERT_EQ(d.intervals.size(), 1u) << d.message;
+  EXPECT_NEAR(d.intervals[0].start_s, 4.2125, 0.005);
+  EXPECT_NEAR(d.intervals[0].end_s, 5.0, 0.002);
+  EXPECT_NEAR(d.intervals[0].level_v, -0.03, 0.004);
+}
+
+TEST(LocateDisturbance, DoesNotLocateWhatTheStateExplains) {
+  // A friction-like residual, sign of a 1 Hz velocity times 0.05, over the whole run: spread over
+  // half the windows, not a few time windows.
+  std::vector<double> t, n;
+  base_signal(6.0, t, n, 7);
+  for (std::size_t k = 0; k < t.size(); ++k) n[k] += 0.05 * std::tanh(std::cos(kTwoPi * t[k]) / 0.05);
+  const DisturbanceEstimate d = locate_disturbance(t, n);
+  EXPECT_TRUE(d.ok);
+  EXPECT_TRUE(d.intervals.empty()) << d.intervals.size() << " intervals, first at "
+                                   << d.intervals.front().start_s;
+  EXPECT_FALSE(d.message.empty());
+  for (double x : d.d_v) EXPECT_EQ(x, 0.0);
+}
+
+TEST(LocateDisturbance, LeavesOutSamplesNotKnownAndSaysWhenTooShort) {
+  std::vector<double> t, n;
+  base_signal(2.0, t, n, 9);
+  std::vector<bool> valid(t.size(), true);
+  for (std::size_t k = 0; k < t.size(); ++k) {
+    if (t[k] >= 0.5 && t[k] < 0.6) n[k] = 1e3, valid[k] = false;  // a one-sided derivative's junk
+  }
+  const DisturbanceEstimate d = locate_disturbance(t, n, valid);
+  EXPECT_TRUE(d.intervals.empty());
+  const std::vector<double> short_t(t.begin(), t.begin() + 300), short_n(n.begin(), n.begin() + 300);
+  const DisturbanceEstimate s = locate_disturbance(short_t, short_n);
+  EXPECT_FALSE(s.ok);
+  EXPECT_NE(s.message.find("fewer than 10 windows"), std::string::npos) << s.message;
+}
+
+TEST(LocateDisturbance, RefusesBadInputNamingTheField) {
+  const std::vector<double> t{0.0, 0.001, 0.002}, n{0.0, 0.0};
+  try {
+    locate_disturbance(t, std::vector<double>(3, 0.0), {}, {}, {std::vector<double>(2, 0.0)});
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.field(), "state_basis[0]");
+  }
+  try {
+    locate_disturbance(t, n);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.field(), "n_hat_v");
+  }
+  DisturbanceOptions o;
+  o.window_s = 0.0;
+  try {
+    locate_disturbance(t, std::vector<double>(3, 0.0), {}, o);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.field(), "window_s");
+  }
+}
+
+}  // namespace
+}  // namespace alphainv
