@@ -24,6 +24,7 @@
 #include "plots.hpp"
 #include "progress.hpp"
 #include "validate_command.hpp"
+#include "validation_plots.hpp"
 
 namespace omni_fit {
 
@@ -162,7 +163,8 @@ int run_fit(const FitCommandOptions& opt) {
 
   ModelFile model;
   try {
-    model = fit_model_file(ds, fit);
+    // Every folder fitted on is hashed and named (model.json "dataset"."paths").
+    model = fit_model_file(ds, fit, {opt.dataset_dirs.begin(), opt.dataset_dirs.end()});
   } catch (const Error& e) {
     std::fprintf(stderr, "omni_fit fit: %s\n", e.what());
     return 2;
@@ -196,11 +198,27 @@ int run_fit(const FitCommandOptions& opt) {
     }
     FitReportInfo report;
     report.dataset_hash = model.dataset_hash;
+    report.dataset_dirs = opt.dataset_dirs;
     report.effects_source = effects_source;
     report.appendix_markdown = figures;
     if (validation) {
       report.appendix_markdown += "\n" + validation_markdown((out / "model.json").string(),
                                                              held_out_label, *validation, "##");
+      if (opt.no_plots) {
+        report.appendix_markdown +=
+            "\n### Validation figures\n\nPlots were skipped: --no-plots was given.\n";
+      } else {
+        ValidationPlotOptions po;
+        po.plot = plot_opt;
+        po.plot.progress = nullptr;  // the progress line is cleared by now
+        po.prefix = "heldout";
+        po.max_runs = opt.plot_runs;
+        po.threads = opt.threads;
+        std::string warning;
+        report.appendix_markdown += draw_validation_figures(held_out.dataset, held_out.data,
+                                                            *validation, po, "###", warning);
+        if (!warning.empty() && !opt.quiet) std::fprintf(stderr, "omni_fit fit: %s\n", warning.c_str());
+      }
     }
     write_text_atomic(tmp / "report.md", fit_report_markdown(ds, fit, report));
     if (!keep_previous) folder->commit();

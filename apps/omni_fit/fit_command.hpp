@@ -27,6 +27,8 @@ struct FitCommandOptions {
   std::vector<std::string> validate_on;
   /// --holdout K: every K-th run per pose held out of the fit and validated on (0: none).
   std::size_t holdout = 0;
+  /// --plot-runs N: held-out runs shown in the compare/resid figures (validation_plots.hpp).
+  std::size_t plot_runs = 3;
 };
 
 /// `omni_fit fit`: returns the process exit code (0 ok, 2 bad input, 3 fit failure).

@@ -51,6 +51,10 @@ int main(int argc, char** argv) {
   fitc->add_option("--holdout", fo.holdout,
                    "hold every K-th run of each pose out of the fit and validate on them")
       ->type_name("K")->check(CLI::Range(2, 1000000));
+  fitc->add_option("--plot-runs", fo.plot_runs,
+                   "held-out runs shown in the compare and resid figures (all when at most N, "
+                   "else the N with the lowest fit %)")
+      ->capture_default_str()->check(CLI::Range(0, 100000));
   fitc->footer("Examples:\n  omni_fit fit data/omni_yaw_sim -o out/fit --json\n"
                "  omni_fit fit data/omni_yaw_sim -o out/fit-ho --holdout 3\n"
                "  omni_fit fit part1/ part2/ -o out/fit12 --validate-on part3/\n"
