@@ -63,6 +63,19 @@ void read_known_effects(const FitCommandOptions& opt, Effects& effects, std::str
     source = "from `" + opt.effects_from + "`";
   }
   for (const std::string& spec : opt.effect_specs) {
+    if (spec == "gravity") {
+      // No values: found by --refine-effects' global search (gravity_search.hpp); the placeholder
+      // g only switches the term on (its θ0 0 is one of the search's starts).
+      if (!opt.refine_effects) {
+        throw Error("gravity without values needs --refine-effects (which searches g and θ0); "
+                    "or give them, e.g. gravity:gravity_v=0.1,gravity_theta0_rad=0",
+                    {}, 0, "--effect gravity");
+      }
+      effects.gravity_v = 1e-3;
+      effects.gravity_theta0_rad = 0.0;
+      source += std::string(source.empty() ? "" : ", ") + "`--effect gravity` (searched)";
+      continue;
+    }
     apply_effect_spec(spec, effects);
     source += std::string(source.empty() ? "" : ", ") + "`--effect " + spec + "`";
   }
@@ -150,15 +163,18 @@ int run_fit(const FitCommandOptions& opt) {
                          "--effect)\n");
     return 2;
   }
-  const DatasetFit fit = opt.refine_effects ? refine_effects(ds, data, popt, &refinement)
-                                            : fit_dataset(ds, data, popt);
+  const DatasetFit fit = opt.refine_effects
+                             ? refine_effects(ds, data, popt, &refinement, opt.refine_evaluations)
+                             : fit_dataset(ds, data, popt);
   if (opt.refine_effects) {
     effects_source += "; refined on all runs by --refine-effects (" +
                       std::to_string(refinement.evaluations) + " fits, α-model Σ‖θ_sim − θ‖² " +
                       report_number(refinement.sse_start) + " → " +
                       report_number(refinement.sse_refined) +
                       " over " + std::to_string(refinement.runs_scored) + " runs" +
-                      (refinement.message.empty() ? "" : "; " + refinement.message) + ")";
+                      (refinement.message.empty() ? "" : "; " + refinement.message) +
+                      (refinement.gravity_search.empty() ? "" : "; " + refinement.gravity_search) +
+                      ")";
   }
 
   ModelFile model;

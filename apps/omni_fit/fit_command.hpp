@@ -23,6 +23,8 @@ struct FitCommandOptions {
   std::vector<std::string> effect_specs;
   /// --refine-effects: refine the known effects' parameters on all runs (effect_refinement.hpp).
   bool refine_effects = false;
+  /// --refine-evaluations N: whole fits the refinement may spend (refine_effects()).
+  int refine_evaluations = 40;
   /// --validate-on DIR: datasets the model is validated on (not fitted on), repeatable.
   std::vector<std::string> validate_on;
   /// --holdout K: every K-th run per pose held out of the fit and validated on (0: none).

@@ -43,7 +43,12 @@ int main(int argc, char** argv) {
   fitc->add_flag("--refine-effects", fo.refine_effects,
                  "refine the known effects' parameters on all runs: each trial a whole fit, "
                  "scored by the alpha-model's squared position error over every simulated run "
-                 "(Nelder-Mead, at most 40 fits)");
+                 "(Nelder-Mead, at most --refine-evaluations fits); gravity's phase and size "
+                 "are first searched globally (a grid over theta0 and g); `--effect gravity` "
+                 "without values leaves them to that search");
+  fitc->add_option("--refine-evaluations", fo.refine_evaluations,
+                   "whole fits --refine-effects may spend (each costs one fit)")
+      ->capture_default_str()->check(CLI::Range(1, 1000));
   fitc->add_option("--validate-on", fo.validate_on,
                    "validate the model on this dataset's runs (not fitted on), as `omni_fit "
                    "validate` does: figures in report.md and --json \"validation\"; repeatable")
