@@ -1474,9 +1474,9 @@ std::vector<DiagnoseRun> diagnose_runs(const Dataset& dataset, const std::vector
     const JointModelAtPose m = fit.model_for_pose(p);
     if (!(m.c_linear > 0.0) || !(m.beta_tilde_linear > 0.0)) continue;
     for (std::size_t i : fit.poses[p].runs) {
+      // A run that switches the motor off (torque_enable) is taken in: the column is its known
+      // input, applied wherever diagnose simulates or regresses (plant_input.hpp).
       const RunData& d = data[i];
-      const std::vector<double>* en = d.column("torque_enable");
-      if (en != nullptr && std::find(en->begin(), en->end(), 0.0) != en->end()) continue;
       DiagnoseRun r;
       r.data = &d;
       r.controller = dataset.runs[i].controller;
