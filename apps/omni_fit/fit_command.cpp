@@ -24,6 +24,7 @@
 #include "plots.hpp"
 #include "progress.hpp"
 #include "validate_command.hpp"
+#include "validation_plots.hpp"
 
 namespace omni_fit {
 
@@ -62,6 +63,19 @@ void read_known_effects(const FitCommandOptions& opt, Effects& effects, std::str
     source = "from `" + opt.effects_from + "`";
   }
   for (const std::string& spec : opt.effect_specs) {
+    if (spec == "gravity") {
+      // No values: found by --refine-effects' global search (gravity_search.hpp); the placeholder
+      // g only switches the term on (its θ0 0 is one of the search's starts).
+      if (!opt.refine_effects) {
+        throw Error("gravity without values needs --refine-effects (which searches g and θ0); "
+                    "or give them, e.g. gravity:gravity_v=0.1,gravity_theta0_rad=0",
+                    {}, 0, "--effect gravity");
+      }
+      effects.gravity_v = 1e-3;
+      effects.gravity_theta0_rad = 0.0;
+      source += std::string(source.empty() ? "" : ", ") + "`--effect gravity` (searched)";
+      continue;
+    }
     apply_effect_spec(spec, effects);
     source += std::string(source.empty() ? "" : ", ") + "`--effect " + spec + "`";
   }
@@ -149,20 +163,24 @@ int run_fit(const FitCommandOptions& opt) {
                          "--effect)\n");
     return 2;
   }
-  const DatasetFit fit = opt.refine_effects ? refine_effects(ds, data, popt, &refinement)
-                                            : fit_dataset(ds, data, popt);
+  const DatasetFit fit = opt.refine_effects
+                             ? refine_effects(ds, data, popt, &refinement, opt.refine_evaluations)
+                             : fit_dataset(ds, data, popt);
   if (opt.refine_effects) {
     effects_source += "; refined on all runs by --refine-effects (" +
                       std::to_string(refinement.evaluations) + " fits, α-model Σ‖θ_sim − θ‖² " +
                       report_number(refinement.sse_start) + " → " +
                       report_number(refinement.sse_refined) +
                       " over " + std::to_string(refinement.runs_scored) + " runs" +
-                      (refinement.message.empty() ? "" : "; " + refinement.message) + ")";
+                      (refinement.message.empty() ? "" : "; " + refinement.message) +
+                      (refinement.gravity_search.empty() ? "" : "; " + refinement.gravity_search) +
+                      ")";
   }
 
   ModelFile model;
   try {
-    model = fit_model_file(ds, fit);
+    // Every folder fitted on is hashed and named (model.json "dataset"."paths").
+    model = fit_model_file(ds, fit, {opt.dataset_dirs.begin(), opt.dataset_dirs.end()});
   } catch (const Error& e) {
     std::fprintf(stderr, "omni_fit fit: %s\n", e.what());
     return 2;
@@ -196,11 +214,27 @@ int run_fit(const FitCommandOptions& opt) {
     }
     FitReportInfo report;
     report.dataset_hash = model.dataset_hash;
+    report.dataset_dirs = opt.dataset_dirs;
     report.effects_source = effects_source;
     report.appendix_markdown = figures;
     if (validation) {
       report.appendix_markdown += "\n" + validation_markdown((out / "model.json").string(),
                                                              held_out_label, *validation, "##");
+      if (opt.no_plots) {
+        report.appendix_markdown +=
+            "\n### Validation figures\n\nPlots were skipped: --no-plots was given.\n";
+      } else {
+        ValidationPlotOptions po;
+        po.plot = plot_opt;
+        po.plot.progress = nullptr;  // the progress line is cleared by now
+        po.prefix = "heldout";
+        po.max_runs = opt.plot_runs;
+        po.threads = opt.threads;
+        std::string warning;
+        report.appendix_markdown += draw_validation_figures(held_out.dataset, held_out.data,
+                                                            *validation, po, "###", warning);
+        if (!warning.empty() && !opt.quiet) std::fprintf(stderr, "omni_fit fit: %s\n", warning.c_str());
+      }
     }
     write_text_atomic(tmp / "report.md", fit_report_markdown(ds, fit, report));
     if (!keep_previous) folder->commit();

@@ -23,10 +23,14 @@ struct FitCommandOptions {
   std::vector<std::string> effect_specs;
   /// --refine-effects: refine the known effects' parameters on all runs (effect_refinement.hpp).
   bool refine_effects = false;
+  /// --refine-evaluations N: whole fits the refinement may spend (refine_effects()).
+  int refine_evaluations = 40;
   /// --validate-on DIR: datasets the model is validated on (not fitted on), repeatable.
   std::vector<std::string> validate_on;
   /// --holdout K: every K-th run per pose held out of the fit and validated on (0: none).
   std::size_t holdout = 0;
+  /// --plot-runs N: held-out runs shown in the compare/resid figures (validation_plots.hpp).
+  std::size_t plot_runs = 3;
 };
 
 /// `omni_fit fit`: returns the process exit code (0 ok, 2 bad input, 3 fit failure).

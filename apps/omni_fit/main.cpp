@@ -43,7 +43,12 @@ int main(int argc, char** argv) {
   fitc->add_flag("--refine-effects", fo.refine_effects,
                  "refine the known effects' parameters on all runs: each trial a whole fit, "
                  "scored by the alpha-model's squared position error over every simulated run "
-                 "(Nelder-Mead, at most 40 fits)");
+                 "(Nelder-Mead, at most --refine-evaluations fits); gravity's phase and size "
+                 "are first searched globally (a grid over theta0 and g); `--effect gravity` "
+                 "without values leaves them to that search");
+  fitc->add_option("--refine-evaluations", fo.refine_evaluations,
+                   "whole fits --refine-effects may spend (each costs one fit)")
+      ->capture_default_str()->check(CLI::Range(1, 1000));
   fitc->add_option("--validate-on", fo.validate_on,
                    "validate the model on this dataset's runs (not fitted on), as `omni_fit "
                    "validate` does: figures in report.md and --json \"validation\"; repeatable")
@@ -51,6 +56,10 @@ int main(int argc, char** argv) {
   fitc->add_option("--holdout", fo.holdout,
                    "hold every K-th run of each pose out of the fit and validate on them")
       ->type_name("K")->check(CLI::Range(2, 1000000));
+  fitc->add_option("--plot-runs", fo.plot_runs,
+                   "held-out runs shown in the compare and resid figures (all when at most N, "
+                   "else the N with the lowest fit %)")
+      ->capture_default_str()->check(CLI::Range(0, 100000));
   fitc->footer("Examples:\n  omni_fit fit data/omni_yaw_sim -o out/fit --json\n"
                "  omni_fit fit data/omni_yaw_sim -o out/fit-ho --holdout 3\n"
                "  omni_fit fit part1/ part2/ -o out/fit12 --validate-on part3/\n"

@@ -786,6 +786,8 @@ std::string gnuplot_preamble(const std::string& id, const std::string& caption, 
 
 std::string gnuplot_quote(std::string_view s) { return gp_quote(s); }
 
+bool program_on_path(const std::string& program) { return on_path(program); }
+
 std::string draw_gnuplot_figure(const std::string& gnuplot, const std::filesystem::path& dir,
                                 const std::string& id) {
   return draw(gnuplot, dir, id);

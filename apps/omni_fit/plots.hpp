@@ -81,6 +81,9 @@ std::string gnuplot_quote(std::string_view s);
 std::string draw_gnuplot_figure(const std::string& gnuplot, const std::filesystem::path& dir,
                                 const std::string& id);
 
+/// Whether `program` can be run: a name with a '/' as is, else looked up along PATH (as execvp).
+bool program_on_path(const std::string& program);
+
 /// Writes `text` to `path` through a temporary name in the same folder, fsync'ed and renamed (the
 /// folder fsync'ed too), so a reader sees the old file or the whole new one, also after a crash.
 /// Throws alphainv::Error naming the file (src/common/atomic_file.hpp, the library's writer).

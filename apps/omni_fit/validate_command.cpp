@@ -14,6 +14,7 @@
 #include "apps/common/report_numbers.hpp"
 #include "common/atomic_file.hpp"
 #include "common/output_folder.hpp"
+#include "validation_plots.hpp"
 
 namespace omni_fit {
 
@@ -101,9 +102,15 @@ CLI::App* add_validate_subcommand(CLI::App& app, ValidateCommandOptions& o) {
   c->add_option("--max-lag", o.max_lag, "lags of the residual tests")->capture_default_str()
       ->check(CLI::Range(1, 1000));
   c->add_option("--threads", o.threads, "threads (default: all cores)");
+  c->add_flag("--no-plots", o.no_plots, "with -o: no figures (plots/ is not written)");
+  c->add_option("--plot-runs", o.plot_runs,
+                "with -o: runs shown in the compare and resid figures (all when the dataset has "
+                "at most N validated runs, else the N with the lowest fit %)")
+      ->capture_default_str()->check(CLI::Range(0, 100000));
   c->add_flag("-q,--quiet", o.quiet, "no report on stdout");
   c->footer("Examples:\n  omni_fit fit data/omni_yaw_sim -o out/fit\n"
             "  omni_fit validate out/fit/model.json other_runs/ --json\n"
+            "  omni_fit validate out/fit/model.json other_runs/ -o out/val   # report.md, figures\n"
             "Exit codes: 0 ok, 1 usage, 2 bad model or dataset, 3 no run could be validated.");
   return c;
 }
@@ -124,7 +131,7 @@ int run_validate(const ValidateCommandOptions& o) {
   std::optional<common::OutputFolder> folder;
   if (!o.out_dir.empty()) {
     try {
-      folder.emplace(o.out_dir, std::initializer_list<const char*>{"report.md", "validation.json"});
+      folder.emplace(o.out_dir, std::initializer_list<const char*>{"report.md", "validation.json", "plots"});
     } catch (const Error& e) {
       std::fprintf(stderr, "omni_fit validate: -o: %s\n", e.what());
       return apps::exit_status(apps::ExitCode::kBadInput);
@@ -140,8 +147,19 @@ int run_validate(const ValidateCommandOptions& o) {
   const nlohmann::json j = validation_json(o.model_path, o.dataset_dir, r);
   if (folder) {
     try {
-      common::write_file_atomically(folder->path() / "report.md",
-                                    validation_markdown(o.model_path, o.dataset_dir, r, "#"));
+      std::string md = validation_markdown(o.model_path, o.dataset_dir, r, "#");
+      if (o.no_plots) {
+        md += "\n## Validation figures\n\nPlots were skipped: --no-plots was given.\n";
+      } else {
+        ValidationPlotOptions po;
+        po.plot.out_dir = folder->path();
+        po.max_runs = o.plot_runs;
+        po.threads = o.threads;
+        std::string warning;
+        md += draw_validation_figures(ds, data, r, po, "##", warning);
+        if (!warning.empty() && !o.quiet) std::fprintf(stderr, "omni_fit validate: %s\n", warning.c_str());
+      }
+      common::write_file_atomically(folder->path() / "report.md", md);
       common::write_file_atomically(folder->path() / "validation.json", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
       folder->commit();
     } catch (const std::exception& e) {

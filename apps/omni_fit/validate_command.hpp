@@ -21,6 +21,8 @@ struct ValidateCommandOptions {
   std::size_t max_lag = 25;        ///< --max-lag: lags of the residual tests
   unsigned threads = 0;
   bool quiet = false;
+  bool no_plots = false;           ///< --no-plots: no figures (with -o)
+  std::size_t plot_runs = 3;       ///< --plot-runs N: runs shown in compare/resid figures
 };
 
 /// The --json object of a validation (the key names are read by other tools: keep them), with

@@ -147,6 +147,10 @@ std::string format_model_file(const ModelFile& m) {
   j["schema"] = kModelSchema;
   j["tool_version"] = m.tool_version;
   j["dataset"] = {{"hash_fnv1a64", m.dataset_hash}, {"path", m.dataset_path}};
+  if (!m.dataset_paths.empty()) {
+    j["dataset"]["paths"] = m.dataset_paths;
+    j["dataset"]["hash_covers"] = kDatasetHashCovers;
+  }
   j["position_unit"] = m.position_unit;
   j["command_unit"] = m.command_unit;
   j["controller"] = {{"kp", m.controller.kp},
@@ -216,6 +220,14 @@ ModelFile parse_model_file(const std::string& text, const std::string& file) {
   if (j.contains("dataset") && j["dataset"].is_object()) {
     m.dataset_hash = j["dataset"].value("hash_fnv1a64", "");
     m.dataset_path = j["dataset"].value("path", "");
+    if (j["dataset"].contains("paths")) {
+      const json& paths = j["dataset"]["paths"];
+      if (!paths.is_array()) throw Error("expected an array of folder names", file, 0, "dataset.paths");
+      for (const json& p : paths) {
+        if (!p.is_string()) throw Error("expected a folder name (a string)", file, 0, "dataset.paths");
+        m.dataset_paths.push_back(p.get<std::string>());
+      }
+    }
   }
   m.position_unit = j.value("position_unit", "rad");
   m.command_unit = j.value("command_unit", "V");
@@ -322,6 +334,12 @@ ModelFile read_model_file(const std::filesystem::path& path) {
 }
 
 std::string hash_dataset(const std::filesystem::path& dir, const std::vector<std::string>& run_files) {
+  return hash_dataset(std::vector<std::filesystem::path>{dir}, run_files);
+}
+
+std::string hash_dataset(const std::vector<std::filesystem::path>& dirs,
+                         const std::vector<std::string>& run_files) {
+  if (dirs.empty()) throw Error("expected at least one dataset folder to hash", {}, 0, "dataset");
   std::uint64_t h = 1469598103934665603ULL;
   auto feed = [&](const std::filesystem::path& p) {
     std::ifstream in(p, std::ios::binary);
@@ -336,8 +354,8 @@ std::string hash_dataset(const std::filesystem::path& dir, const std::vector<std
       }
     }
   };
-  feed(dir / "dataset.json");
-  for (const auto& f : run_files) feed(dir / f);
+  for (const auto& dir : dirs) feed(dir / "dataset.json");
+  for (const auto& f : run_files) feed(dirs.front() / f);  // an absolute name stays as it is
   char hex[17];
   std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(h));
   return hex;

@@ -15,6 +15,7 @@
 #include "alphainv/error.hpp"
 #include "alphainv/identify/alpha_fit.hpp"
 #include "alphainv/identify/effect_sine_point.hpp"
+#include "alphainv/identify/gravity_search.hpp"
 #include "alphainv/identify/output_error.hpp"
 #include "alphainv/model/plant_input.hpp"
 #include "alphainv/simulate/known_inputs.hpp"
@@ -302,6 +303,34 @@ double scan_start(const std::vector<DiagnoseRun>& runs, const std::vector<std::s
     }
   }
   return best;
+}
+
+/// Gravity's start searched globally (gravity_search.hpp, issue #14/#15: a local search from the
+/// equation-error start ended at θ0 ≈ 1 rad on a servo pendulum with θ0 ≈ 0): a grid over
+/// θ0 ∈ (−π, π] and g, with the equation-error start `e`, scored by the pooled squared error over
+/// the fit runs of the current model with that gravity, then Nelder-Mead from the best; the
+/// output-error fit of the candidate refines from there.
+Effects global_gravity_start(const std::vector<DiagnoseRun>& runs,
+                             const std::vector<std::size_t>& fit_runs, const Effects& e,
+                             const ModelScales& ms, const DataScales& sc,
+                             const DiagnoseOptions& opt, const std::optional<AlphaModel>& alpha) {
+  const GravityCost cost = [&](double g, double theta0) {
+    Effects x = e;
+    x.gravity_v = g;
+    x.gravity_theta0_rad = theta0;
+    const double r = pooled_rms(runs, run_rms_with(runs, fit_runs, x, ms, opt, alpha), fit_runs);
+    return std::isfinite(r) ? r * r : kInf;
+  };
+  GravitySearchOptions go;
+  go.amplitudes = gravity_grid_amplitudes(sc.v_max);
+  go.threads = 1;  // run_rms_with runs the fit runs in parallel
+  const GravitySearchResult gs = search_gravity(cost, go, {{e.gravity_v, e.gravity_theta0_rad, 0.0}});
+  Effects out = e;
+  if (gs.ok) {
+    out.gravity_v = gs.best.g;
+    out.gravity_theta0_rad = gs.best.theta0;
+  }
+  return out;
 }
 
 }  // namespace
@@ -826,6 +855,9 @@ CandidateSearch search_candidate(EffectKind kind, const PreparedRuns& prepared,
     const EffectSpec& spec = effect_spec(kind);
     if (spec.equation_error_start != nullptr) {
       equation_error_start(kind, start.torque_residual, sc, e);
+      // Without re-identification (no sine runs) gravity's phase is searched globally here.
+      if (kind == EffectKind::kGravity && !reid.usable())
+        e = global_gravity_start(runs, fit_runs, e, model.scales, sc, opt, model.alpha);
     } else if (kind != EffectKind::kNone && !reid.usable()) {
       // No regression for it: its first parameter scanned over the search grid (without
       // re-identification; with it, the search below scans).
@@ -1505,9 +1537,9 @@ std::vector<DiagnoseRun> diagnose_runs(const Dataset& dataset, const std::vector
     const JointModelAtPose m = fit.model_for_pose(p);
     if (!(m.c_linear > 0.0) || !(m.beta_tilde_linear > 0.0)) continue;
     for (std::size_t i : fit.poses[p].runs) {
+      // A run that switches the motor off (torque_enable) is taken in: the column is its known
+      // input, applied wherever diagnose simulates or regresses (plant_input.hpp).
       const RunData& d = data[i];
-      const std::vector<double>* en = d.column("torque_enable");
-      if (en != nullptr && std::find(en->begin(), en->end(), 0.0) != en->end()) continue;
       DiagnoseRun r;
       r.data = &d;
       r.controller = dataset.runs[i].controller;

@@ -3,9 +3,13 @@
 #include <nlopt.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <utility>
+
+#include "alphainv/identify/gravity_search.hpp"
+#include "common/format.hpp"
 
 namespace alphainv {
 
@@ -88,14 +92,60 @@ DatasetFit refine_effects(const Dataset& dataset, const std::vector<RunData>& da
     r.message = "no α-model was fitted and simulated: nothing to score the effects on";
     return start_fit;
   }
+  // Gravity: its phase searched globally first (gravity_search.hpp), the local search below then
+  // starts from the best (g, θ0) when that fits better than the values given.
+  bool moved = false;
+  if (options.effects.gravity_v != 0.0) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const TimeDomainGravityCost cost(dataset, data, options.effects, start_fit.simulation);
+    std::vector<GravityPoint> starts{{options.effects.gravity_v, options.effects.gravity_theta0_rad, 0.0}};
+    GravityPoint ee;
+    if (cost.equation_error_start(ee)) starts.push_back(ee);
+    GravitySearchOptions go;
+    go.amplitudes = gravity_grid_amplitudes(cost.v_max());
+    go.threads = options.threads;
+    const GravitySearchResult gs = search_gravity(cost, go, starts);
+    r.gravity_search = gs.ok ? common::format("gravity searched over θ0 ∈ (−π, π] and g (%zu grid "
+                                              "points and starts, %d evaluations of the "
+                                              "equation-error linear model, %.1f s): g = %.4g, "
+                                              "θ0 = %.3f rad",
+                                              gs.grid.size(), gs.evaluations,
+                                              std::chrono::duration<double>(
+                                                  std::chrono::steady_clock::now() - t0).count(),
+                                              gs.best.g, gs.best.theta0)
+                             : "gravity search failed: " + gs.message;
+    const GravityPoint given = normal_gravity(options.effects.gravity_v,
+                                              options.effects.gravity_theta0_rad);
+    if (gs.ok && (std::abs(gs.best.g - given.g) > 1e-6 * given.g ||
+                  std::abs(std::remainder(gs.best.theta0 - given.theta0, 6.283185307179586)) > 1e-6)) {
+      FitPipelineOptions og = o;
+      og.effects.gravity_v = gs.best.g;
+      og.effects.gravity_theta0_rad = gs.best.theta0;
+      DatasetFit searched = fit_dataset(dataset, data, og);
+      ++r.evaluations;
+      std::size_t runs = 0;
+      const double sse = alpha_sse(searched, &runs);
+      if (searched.alpha.ok && sse < r.sse_start) {
+        o.effects = og.effects;
+        start_fit = std::move(searched);
+        r.sse_refined = sse;
+        r.runs_scored = runs;
+        moved = true;
+        r.gravity_search += common::format(", whole fit Σ‖θ_sim − θ‖² %.4g (the values given: %.4g)",
+                                           sse, r.sse_start);
+      } else {
+        r.gravity_search += ", not better than the values given in the whole fit";
+      }
+    }
+  }
   Objective obj;
   obj.dataset = &dataset;
   obj.data = &data;
   obj.options = o;
   std::vector<double> x, step;
-  for (EffectKind kind : active_effects(options.effects)) {
+  for (EffectKind kind : active_effects(o.effects)) {
     for (const EffectParameter& p : effect_parameters(kind)) {
-      const double v = options.effects.*(p.member);
+      const double v = o.effects.*(p.member);
       obj.params.push_back(p);
       // Searched relative to the start (x = 1), first steps of 20 %; a zero start (a phase)
       // is searched in its own unit with a step of 0.3.
@@ -110,8 +160,8 @@ DatasetFit refine_effects(const Dataset& dataset, const std::vector<RunData>& da
     r.message = "no active effect to refine";
     return start_fit;
   }
-  obj.best = r.sse_start;
-  obj.best_effects = options.effects;
+  obj.best = r.sse_refined;  // the start's: the values given, or the gravity search's
+  obj.best_effects = o.effects;
   nlopt_opt opt = nlopt_create(NLOPT_LN_NELDERMEAD, static_cast<unsigned>(x.size()));
   if (opt == nullptr) {
     r.message = "NLopt could not create the optimiser";
@@ -127,8 +177,12 @@ DatasetFit refine_effects(const Dataset& dataset, const std::vector<RunData>& da
   nlopt_destroy(opt);
   r.evaluations += obj.evaluations;
   r.ok = true;
-  if (!(obj.best < r.sse_start)) {
-    r.message = "the values given were already the best found";
+  if (!(obj.best < r.sse_refined)) {
+    if (!moved) {
+      r.message = "the values given were already the best found";
+      return start_fit;
+    }
+    r.refined = o.effects;  // the gravity search's start, not improved on locally
     return start_fit;
   }
   r.refined = obj.best_effects;

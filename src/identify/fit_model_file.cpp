@@ -9,14 +9,18 @@
 
 namespace alphainv {
 
-ModelFile fit_model_file(const Dataset& ds, const DatasetFit& fit) {
+ModelFile fit_model_file(const Dataset& ds, const DatasetFit& fit,
+                         const std::vector<std::filesystem::path>& dataset_dirs) {
   ModelFile model;
   model.tool_version = "alphainv 0.1.0";
-  if (!ds.dir.empty()) {  // an in-memory dataset (never read from a folder) has neither
+  const std::vector<std::filesystem::path> dirs =
+      dataset_dirs.empty() ? std::vector<std::filesystem::path>{ds.dir} : dataset_dirs;
+  if (!dirs.front().empty()) {  // an in-memory dataset (never read from a folder) has neither
     std::vector<std::string> files;
     for (const auto& r : ds.runs) files.push_back(r.file);
-    model.dataset_hash = hash_dataset(ds.dir, files);
-    model.dataset_path = std::filesystem::absolute(ds.dir).string();
+    model.dataset_hash = hash_dataset(dirs, files);
+    model.dataset_path = std::filesystem::absolute(dirs.front()).string();
+    for (const auto& d : dirs) model.dataset_paths.push_back(std::filesystem::absolute(d).string());
   }
   model.position_unit = ds.position_unit;
   model.command_unit = ds.command_unit;

@@ -31,9 +31,19 @@ std::string pose_label(const PoseFit& p) {
 void header_section(std::ostringstream& r, const Dataset& ds, const DatasetFit& fit,
                     const FitReportInfo& info) {
   r << "# omni_fit report\n\n";
-  r << "Dataset: `" << ds.dir.string() << "` (" << ds.runs.size() << " runs, " << fit.poses.size()
-    << " poses, position unit " << ds.position_unit << ", command unit " << ds.command_unit
-    << "), hash " << info.dataset_hash << ".\n\n";
+  if (info.dataset_dirs.size() > 1) {
+    r << "Datasets fitted together:";
+    for (std::size_t k = 0; k < info.dataset_dirs.size(); ++k) {
+      r << (k == 0 ? " `" : " + `") << info.dataset_dirs[k] << "`";
+    }
+  } else {
+    r << "Dataset: `" << ds.dir.string() << "`";
+  }
+  r << " (" << ds.runs.size() << " runs, " << fit.poses.size() << " poses, position unit "
+    << ds.position_unit << ", command unit " << ds.command_unit << "), hash "
+    << info.dataset_hash
+    << (info.dataset_dirs.size() > 1 ? " (of every folder's dataset.json and every run file)" : "")
+    << ".\n\n";
   if (!active_effects(fit.effects).empty()) {
     r << "**Fitted with known effects** (" << info.effects_source
       << "): " << effects_text(fit.effects)

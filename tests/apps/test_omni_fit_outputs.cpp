@@ -12,7 +12,11 @@
 #include <fstream>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
+#include "alphainv/data/dataset.hpp"
 #include "support/files.hpp"
+#include "support/model_dataset.hpp"
 #include "support/subprocess.hpp"
 
 using alphainv::test::names_in;
@@ -49,6 +53,22 @@ class OmniFitOutputs : public ::testing::Test {
         << R"({"format": "alphainv-dataset/1", "kp": 2, "runs": [{"file": "run.csv",
            "kind": "sine", "freq_hz": 1, "amplitude_rad": 0.05}]})";
     return ds;
+  }
+
+  /// Runs of the paper's α-model at one pose (sines at `freqs`, 4 s, and a square run) written as
+  /// a dataset folder <dir>/<name> (tests/support/model_dataset.hpp): something to fit.
+  fs::path model_dataset(const std::string& name, const std::vector<double>& freqs) {
+    alphainv::Dataset ds;
+    std::vector<alphainv::RunData> data;
+    alphainv::test::ModelDatasetPlan plan;
+    plan.poses_deg = {{40.68, 68.52}};
+    plan.freqs_hz = freqs;
+    plan.duration_s = 4.0;
+    plan.file_prefix = "runs/";
+    plan.separator = "_";
+    alphainv::test::append_model_runs(plan, ds, data);
+    alphainv::write_dataset(dir_ / name, ds, data);
+    return dir_ / name;
   }
 
   /// paper_model.json with `from` replaced by `to` (once), written to <dir>/<name>.
@@ -196,4 +216,96 @@ TEST_F(OmniFitOutputs, ANonUtf8DatasetPathDoesNotCostTheResult) {
   EXPECT_NE(r.out.find("\"dataset\""), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("caf\xef\xbf\xbd"), std::string::npos) << r.out;  // U+FFFD
   EXPECT_EQ(r.out.find("caf\xe9"), std::string::npos);
+}
+
+// #14: `validate -o` writes the compare and resid figures into OUT/plots and report.md links
+// each of them; --no-plots writes none and says so.
+TEST_F(OmniFitOutputs, ValidateWritesItsFiguresAndTheReportLinksThem) {
+  const fs::path ds = model_dataset("runs", {2.0, 3.5, 6.0});
+  const fs::path out = dir_ / "val";
+  const ProcessResult r = run_process({kFit, "validate", kPaperModel, ds.string(), "-o",
+                                       out.string(), "-q", "--plot-runs", "2"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string md = slurp(out / "report.md");
+  std::size_t compare = 0, resid = 0;
+  for (const std::string& f : names_in(out / "plots")) {
+    if (f.size() < 4 || f.substr(f.size() - 4) != ".png") continue;
+    EXPECT_NE(md.find("](plots/" + f + ")"), std::string::npos) << f << " not in report.md";
+    compare += f.rfind("validation_compare_run", 0) == 0;
+    resid += f.rfind("validation_resid_run", 0) == 0;
+  }
+  const bool gnuplot = std::system("command -v gnuplot > /dev/null 2>&1") == 0;
+  if (gnuplot) {
+    EXPECT_EQ(compare, 2u);  // --plot-runs 2 of the 4 runs
+    EXPECT_EQ(resid, 2u);
+    EXPECT_TRUE(fs::exists(out / "plots" / "validation_fit_per_run.png"));
+  }
+  EXPECT_TRUE(fs::exists(out / "plots" / "validation_fit_per_run.gp"));
+  EXPECT_NE(md.find("## Validation figures"), std::string::npos) << md;
+
+  const ProcessResult np = run_process({kFit, "validate", kPaperModel, ds.string(), "-o",
+                                        out.string(), "-q", "--no-plots"});
+  ASSERT_EQ(np.exit_code, 0) << np.err;
+  EXPECT_FALSE(fs::exists(out / "plots"));
+  EXPECT_NE(slurp(out / "report.md").find("Plots were skipped: --no-plots was given"),
+            std::string::npos);
+}
+
+// #14: `fit --holdout` draws the held-out runs' figures beside the fit's (heldout_*), linked from
+// report.md; --no-plots draws neither.
+TEST_F(OmniFitOutputs, FitHoldoutFiguresAreLinkedFromTheReport) {
+  const fs::path ds = model_dataset("runs", {2.0, 3.0, 3.5, 4.0, 5.0});
+  const fs::path out = dir_ / "fit";
+  const ProcessResult r =
+      run_process({kFit, "fit", ds.string(), "-o", out.string(), "-q", "--holdout", "3"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string md = slurp(out / "report.md");
+  EXPECT_NE(md.find("### Validation figures"), std::string::npos) << md;
+  EXPECT_TRUE(fs::exists(out / "plots" / "heldout_fit_per_run.gp"));
+  if (std::system("command -v gnuplot > /dev/null 2>&1") == 0) {
+    std::size_t heldout = 0;
+    for (const std::string& f : names_in(out / "plots")) {
+      if (f.rfind("heldout_", 0) != 0 || f.substr(f.size() - 4) != ".png") continue;
+      ++heldout;
+      EXPECT_NE(md.find("](plots/" + f + ")"), std::string::npos) << f;
+    }
+    EXPECT_EQ(heldout, 1u + 2u * 2u);  // 2 of the 6 runs held out (the 3rd and 6th)
+  }
+  const ProcessResult np = run_process(
+      {kFit, "fit", ds.string(), "-o", out.string(), "-q", "--holdout", "3", "--no-plots"});
+  ASSERT_EQ(np.exit_code, 0) << np.err;
+  EXPECT_FALSE(fs::exists(out / "plots" / "heldout_fit_per_run.gp"));
+  EXPECT_NE(slurp(out / "report.md").find("### Validation figures\n\nPlots were skipped"),
+            std::string::npos);
+}
+
+// #14: `fit DIR1 DIR2`: model.json names both folders and its hash covers both dataset.json
+// files (it covered only the first): a change to the second's changes the hash.
+TEST_F(OmniFitOutputs, TheHashOfSeveralDatasetsCoversEveryDatasetJson) {
+  const fs::path a = model_dataset("a", {2.0, 3.5});
+  const fs::path b = model_dataset("b", {3.0, 5.0});
+  auto fit_hash = [&](const std::string& name, nlohmann::json* dataset) {
+    const fs::path out = dir_ / name;
+    const ProcessResult r = run_process(
+        {kFit, "fit", a.string(), b.string(), "-o", out.string(), "-q", "--no-plots"});
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    const nlohmann::json j = nlohmann::json::parse(slurp(out / "model.json"));
+    if (dataset != nullptr) *dataset = j["dataset"];
+    return j["dataset"]["hash_fnv1a64"].get<std::string>();
+  };
+  nlohmann::json dataset;
+  const std::string h1 = fit_hash("fit1", &dataset);
+  ASSERT_EQ(dataset["paths"].size(), 2u) << dataset.dump();
+  EXPECT_EQ(dataset["paths"][0], fs::absolute(a).string());
+  EXPECT_EQ(dataset["paths"][1], fs::absolute(b).string());
+  EXPECT_NE(dataset["hash_covers"].get<std::string>().find("every folder"), std::string::npos);
+  EXPECT_EQ(fit_hash("fit1_again", nullptr), h1);
+  // The second folder's dataset.json only (a free-text field the fit does not read).
+  std::string text = slurp(b / "dataset.json");
+  const std::size_t at = text.find('{');
+  ASSERT_NE(at, std::string::npos);
+  text.insert(at + 1, "\"joint\": \"yaw, second recording\", ");
+  std::ofstream(b / "dataset.json") << text;
+  EXPECT_NE(fit_hash("fit2", nullptr), h1);
+  EXPECT_NE(slurp(dir_ / "fit2" / "report.md").find("Datasets fitted together"), std::string::npos);
 }

@@ -271,5 +271,46 @@ TEST(ModelFile, AnOpenLoopModelRoundTrips) {
   EXPECT_EQ(back.controller.kd, 0.0);
 }
 
+// #14: several dataset folders fitted together: every folder's dataset.json is in the hash (in
+// order, then the run files), and model.json lists the folders; one folder hashes as before.
+TEST(ModelFile, TheHashCoversEveryDatasetFolder) {
+  namespace fs = std::filesystem;
+  const fs::path root = fs::temp_directory_path() / ("alphainv_test_hash_" + std::to_string(::getpid()));
+  fs::remove_all(root);
+  fs::create_directories(root / "a");
+  fs::create_directories(root / "b");
+  std::ofstream(root / "a" / "dataset.json") << "{\"a\": 1}";
+  std::ofstream(root / "a" / "run.csv") << "t,r,theta,v\n0,0,0,0\n";
+  std::ofstream(root / "b" / "dataset.json") << "{\"b\": 1}";
+  std::ofstream(root / "b" / "run.csv") << "t,r,theta,v\n0,0,0,1\n";
+  const std::vector<std::string> runs = {"run.csv", (root / "b" / "run.csv").string()};
+  const std::string one = hash_dataset(root / "a", {"run.csv"});
+  EXPECT_EQ(hash_dataset(std::vector<fs::path>{root / "a"}, {"run.csv"}), one);
+  const std::string both = hash_dataset({root / "a", root / "b"}, runs);
+  EXPECT_EQ(both.size(), 16u);
+  EXPECT_NE(both, hash_dataset(root / "a", runs));  // b's dataset.json counts
+  EXPECT_NE(both, hash_dataset({root / "b", root / "a"}, runs));  // in order
+  std::ofstream(root / "b" / "dataset.json") << "{\"b\": 2}";
+  EXPECT_NE(hash_dataset({root / "a", root / "b"}, runs), both);
+  EXPECT_THROW(hash_dataset(std::vector<fs::path>{}, runs), Error);
+  EXPECT_THROW(hash_dataset({root / "a", root / "missing"}, runs), Error);
+  fs::remove_all(root);
+
+  ModelFile m = sample_model();
+  m.dataset_paths = {"/data/a", "/data/b"};
+  const std::string text = format_model_file(m);
+  EXPECT_NE(text.find(kDatasetHashCovers), std::string::npos);
+  EXPECT_EQ(parse_model_file(text, "model.json").dataset_paths, m.dataset_paths);
+  EXPECT_TRUE(parse_model_file(format_model_file(sample_model()), "m.json").dataset_paths.empty());
+  std::string bad = text;
+  bad.replace(bad.find("\"/data/a\""), 9, "7");
+  try {
+    (void)parse_model_file(bad, "model.json");
+    ADD_FAILURE() << "a number among the paths was read";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("dataset.paths"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace alphainv

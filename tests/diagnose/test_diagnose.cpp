@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "alphainv/error.hpp"
+#include "alphainv/simulate/recorded_run.hpp"
 
 #include "diagnose/one_pose_dataset.hpp"
 
@@ -110,6 +111,53 @@ DiagnoseResult expect_named(const Effects& hidden, std::uint64_t seed, EffectKin
   EXPECT_EQ(r.effects_named.empty() ? EffectKind::kNone : r.effects_named[0], expected);
   EXPECT_LT(r.error_after, 0.7 * r.error_before);  // the gap shrinks by 30 % or more
   return r;
+}
+
+// #14: a run that switches the motor off (torque_enable = 0 for t > 3 s: free motion) is one of
+// the diagnosed runs, its column the known input of its simulation: the run made by the fitted
+// model with the motor off is reproduced, and ignoring the column gives another motion.
+TEST(Diagnose, MotorOffRunsAreTakenInWithTheirKnownInput) {
+  GeneratedDataset g = test::one_pose_dataset(Effects{}, 9);
+  const DatasetFit fit = fit_dataset(g.index, g.runs);
+  ASSERT_TRUE(fit.usable());
+  std::size_t sq = g.index.runs.size();
+  for (std::size_t i = 0; i < g.index.runs.size(); ++i) {
+    if (g.index.runs[i].kind == "square") sq = i;
+  }
+  ASSERT_LT(sq, g.index.runs.size());
+  std::size_t pose = 0;
+  for (std::size_t p = 0; p < fit.poses.size(); ++p) {
+    for (std::size_t i : fit.poses[p].runs) pose = i == sq ? p : pose;
+  }
+  RunData& d = g.runs[sq];
+  std::vector<double> enable(d.size());
+  for (std::size_t k = 0; k < d.size(); ++k) enable[k] = d.t[k] > 3.0 ? 0.0 : 1.0;
+  d.extra_columns["torque_enable"] = enable;
+  JointModelAtPose m = fit.model_for_pose(pose);
+  const SimulationResult truth =
+      simulate_recorded_run(m, g.index.runs[sq].controller, d, initial_state_of(d), fit.simulation);
+  ASSERT_TRUE(truth.ok) << truth.message;
+  d.theta = truth.theta;  // the motor-off run of the fitted model itself
+  const std::vector<DiagnoseRun> runs = diagnose_runs(g.index, g.runs, fit);
+  ASSERT_EQ(runs.size(), g.index.runs.size());  // none left out
+  const DiagnoseRun* off = nullptr;
+  for (const DiagnoseRun& r : runs) off = r.data == &d ? &r : off;
+  ASSERT_NE(off, nullptr);
+  const std::vector<std::vector<double>> sims =
+      simulate_diagnosed({*off}, Effects{}, ModelScales{}, fit.simulation, 1);
+  ASSERT_EQ(sims.at(0).size(), d.size());
+  double used = 0.0, ignored = 0.0;
+  const SimulationResult without = simulate_recorded_run(
+      m, g.index.runs[sq].controller, d, initial_state_of(d), fit.simulation, KnownInputUse::kIgnore);
+  ASSERT_TRUE(without.ok);
+  for (std::size_t k = 0; k < d.size(); ++k) {
+    used = std::max(used, std::abs(sims[0][k] - d.theta[k]));
+    ignored = std::max(ignored, std::abs(without.theta[k] - d.theta[k]));
+  }
+  // The diagnosed model is the fitted one up to its start (the α-model's first command): within
+  // a few 1e-4 rad, against the whole difference of free and held motion.
+  EXPECT_LT(used, 0.05 * ignored) << "used " << used << ", ignored " << ignored;
+  EXPECT_GT(ignored, 1e-2);
 }
 
 TEST(DiagnoseSweep, NamesADeadzoneAndCutsTheGap) {

@@ -30,8 +30,13 @@ struct PoseLinearModel {
 /// Everything in model.json.
 struct ModelFile {
   std::string tool_version;      ///< the alphainv version that wrote it
-  std::string dataset_hash;      ///< FNV-1a 64 of dataset.json and the run files, hex
-  std::string dataset_path;      ///< where the dataset was read from (informational)
+  /// FNV-1a 64, hex, of the dataset.json of every folder in dataset_paths (in order), then of
+  /// every run file (hash_dataset()); model.json states this as "dataset"."hash_covers"
+  std::string dataset_hash;
+  std::string dataset_path;      ///< where the (first) dataset was read from (informational)
+  /// Every dataset folder the model was fitted on (`omni_fit fit DIR1 DIR2 …`), the first one
+  /// dataset_path; model.json's "dataset"."paths". Empty: only dataset_path (older files).
+  std::vector<std::string> dataset_paths;
   std::string position_unit = "rad";
   std::string command_unit = "V";
   Controller controller;         ///< the controller of the identification runs
@@ -73,5 +78,15 @@ ModelFile parse_model_file(const std::string& json, const std::string& name_for_
 
 /// FNV-1a 64-bit hash of dataset.json and every run file of the dataset at `dir`, as 16 hex digits.
 std::string hash_dataset(const std::filesystem::path& dir, const std::vector<std::string>& run_files);
+/// The same over several folders fitted together: the dataset.json of every folder in `dirs`, in
+/// order, then every run file (a relative name is taken in dirs.front(); combine_datasets() makes
+/// the names of several folders absolute). One folder: hash_dataset(dirs.front(), run_files).
+/// Throws alphainv::Error naming a file that cannot be read, or ("dataset") when `dirs` is empty.
+std::string hash_dataset(const std::vector<std::filesystem::path>& dirs,
+                         const std::vector<std::string>& run_files);
+/// What "dataset"."hash_covers" in model.json says the hash covers.
+inline constexpr const char* kDatasetHashCovers =
+    "FNV-1a 64 of the dataset.json of every folder in paths, in order, then of every run file "
+    "they name, in order";
 
 }  // namespace alphainv

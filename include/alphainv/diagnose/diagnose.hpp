@@ -252,7 +252,8 @@ std::vector<std::vector<double>> simulate_diagnosed(const std::vector<DiagnoseRu
                                                     const std::optional<AlphaModel>& alpha = std::nullopt);
 
 /// The runs of `dataset` with the models of `fit` (model_for_pose of each run's pose), each under
-/// its own controller; runs that switch the motor off (torque_enable = 0) are left out.
+/// its own controller; runs that switch the motor off (torque_enable = 0) are in, the column a
+/// known input of their simulations (plant_input.hpp), as fit and validate take it.
 std::vector<DiagnoseRun> diagnose_runs(const Dataset& dataset, const std::vector<RunData>& data,
                                        const DatasetFit& fit);
 

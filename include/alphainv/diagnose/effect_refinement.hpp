@@ -28,11 +28,17 @@ struct EffectRefinement {
   std::size_t runs_scored = 0;  ///< runs in the sums
   int evaluations = 0;          ///< fit_dataset() calls
   std::vector<std::string> parameters;  ///< the parameters refined ("coulomb_v", …)
+  /// With gravity among the effects: what its global search (gravity_search.hpp) found, one
+  /// line; empty otherwise.
+  std::string gravity_search;
 };
 
 /// Refines every fitted parameter (effect_parameters()) of the effects active in
 /// options.effects, from their values there, by bounded Nelder-Mead (NLopt) on the score of the
-/// file comment (at most max_evaluations fits); the returned fit is the one at the best values
+/// file comment. Gravity's (g, θ0) is first searched globally (search_gravity() with the
+/// TimeDomainGravityCost, a grid over θ0 ∈ (−π, π] and g from the data's command range, plus the
+/// values given and an equation-error start); the local search starts from its best when a whole
+/// fit there scores better than the values given (at most max_evaluations fits); the returned fit is the one at the best values
 /// (options.run_validation is forced on). With no active effect, or no α-model, it returns the
 /// plain fit and `out->ok` false with the reason.
 DatasetFit refine_effects(const Dataset& dataset, const std::vector<RunData>& data,

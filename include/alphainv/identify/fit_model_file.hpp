@@ -15,6 +15,9 @@ namespace alphainv {
 /// dataset's hash, path, units and first run's controller. A dataset whose `dir` is empty (made
 /// in memory, never read from a folder) leaves the hash and the path empty. Throws
 /// alphainv::Error when the dataset's files cannot be hashed (hash_dataset()).
-ModelFile fit_model_file(const Dataset& dataset, const DatasetFit& fit);
+/// `dataset_dirs`: the folders a combined dataset (combine_datasets()) was read from, all of them
+/// hashed and listed (ModelFile::dataset_paths); empty: dataset.dir alone.
+ModelFile fit_model_file(const Dataset& dataset, const DatasetFit& fit,
+                         const std::vector<std::filesystem::path>& dataset_dirs = {});
 
 }  // namespace alphainv

@@ -7,6 +7,7 @@
 /// figures and writes the file. Not real-time safe (allocates); never throws.
 
 #include <string>
+#include <vector>
 
 #include "alphainv/data/dataset.hpp"
 #include "alphainv/identify/fit_pipeline.hpp"
@@ -16,6 +17,9 @@ namespace alphainv {
 /// What report.md says beyond the dataset and its fit.
 struct FitReportInfo {
   std::string dataset_hash;  ///< hash of the runs (ModelFile::dataset_hash, hash_dataset())
+  /// The folders fitted together (`omni_fit fit DIR1 DIR2 …`); more than one: all named, and the
+  /// hash said to cover each one's dataset.json. Empty: the dataset's `dir`.
+  std::vector<std::string> dataset_dirs;
   /// Where the known effects came from, e.g. "from `diag.json`" or "`--effect …`"; shown when the
   /// fit has active effects.
   std::string effects_source;
