@@ -127,8 +127,6 @@ DiagnoseResult diagnose_without_candidates(const ExperimentPlanOptions& plan) {
   const GeneratedDataset g = generate_dataset(make_experiment_plan(plan));
   DiagnoseOptions o;
   o.candidates = {EffectKind::kNone};
-  o.max_fit_runs = 6;  // (fewer and shorter fit windows than the default: a faster test)
-  o.fit_window_s = 1.5;
   return diagnose_dataset(g.index, g.runs, o);
 }
 

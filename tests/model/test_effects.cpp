@@ -509,7 +509,9 @@ TEST(DiscoveredTerm, TorqueIsTheSumOfItsTermsOverTheLibrary) {
     EXPECT_EQ(spec.parameters[k].member, kDiscoveredLibrary[k].coefficient) << k;
   EXPECT_FALSE(spec.candidate);
   for (const EffectSpec& s : kEffectCatalogue) {
-    if (s.kind != EffectKind::kDiscovered) EXPECT_TRUE(s.candidate) << s.name;
+    if (s.kind != EffectKind::kDiscovered) {
+      EXPECT_TRUE(s.candidate) << s.name;
+    }
   }
 }
 
