@@ -14,6 +14,7 @@
 #include "alphainv/diagnose/diagnose.hpp"
 #include "alphainv/diagnose/diagnose_report.hpp"
 #include "alphainv/diagnose/diagnosed_model_file.hpp"
+#include "alphainv/diagnose/discovered_term.hpp"
 #include "alphainv/identify/fit_model_file.hpp"
 #include "alphainv/error.hpp"
 #include "alphainv/data/model_file.hpp"
@@ -33,7 +34,10 @@ nlohmann::json num(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlo
 
 nlohmann::json parameters_json(const Effects& e, EffectKind kind) {
   nlohmann::json p = nlohmann::json::object();
-  for (const auto& par : effect_parameters(kind)) p[par.name] = num(e.*(par.member));
+  for (const auto& par : effect_parameters(kind)) {
+    if (detail::omitted_when_zero(kind, par) && e.*(par.member) == 0.0) continue;
+    p[par.name] = num(e.*(par.member));
+  }
   return p;
 }
 
@@ -67,6 +71,33 @@ nlohmann::json result_json(const DiagnoseResult& res) {
     named.push_back({{"effect", effect_name(rd.named)},
                      {"parameters", parameters_json(res.effects, rd.named)},
                      {"error_after", num(rd.error_after)}});
+  }
+  // The discovered term (tried when structure remained after the named effects): its terms,
+  // the error after it, and whether it was kept (in the model) and carries the remainder.
+  if (res.discovered && res.discovered->ok && !res.discovered->terms.empty()) {
+    const DiscoveredTermResult& d = *res.discovered;
+    nlohmann::json terms = nlohmann::json::array();
+    for (const DiscoveredTermEntry& t : d.terms) {
+      terms.push_back({{"name", t.name}, {"function", t.formula}, {"coefficient", num(t.coefficient)},
+                       {"standard_error", num(t.standard_error)},
+                       {"regression_coefficient", num(t.regression_coefficient)},
+                       {"regression_standard_error", num(t.regression_standard_error)}});
+    }
+    nlohmann::json p = nlohmann::json::object();
+    for (const DiscoveredTermEntry& t : d.terms) p[t.name] = num(t.coefficient);
+    for (const auto& par : effect_parameters(EffectKind::kDiscovered, true)) {
+      if (par.modelling_choice) p[par.name] = num(d.effects.*(par.member));
+    }
+    nlohmann::json entry = {{"effect", effect_name(EffectKind::kDiscovered)}, {"parameters", p},
+                            {"terms", terms}, {"equation", d.equation}, {"reading", d.reading},
+                            {"error_before", num(d.error_before)}, {"error_after", num(d.error_after)},
+                            {"gap_closed", num(d.gap_closed)}, {"kept", d.kept},
+                            {"carries_remainder", d.carries_remainder}};
+    if (d.kept) named.push_back(entry);
+    j["discovered"] = entry;
+  } else if (res.discovered) {
+    j["discovered"] = {{"effect", effect_name(EffectKind::kDiscovered)}, {"kept", false},
+                       {"message", res.discovered->message}};
   }
   j["named"] = named;
   // The verdict on the final model against the noise floor estimated from the data.
@@ -160,6 +191,8 @@ CLI::App* add_diagnose_subcommand(CLI::App& app, DiagnoseCommandOptions& o) {
   c->add_flag("--json", o.json, "print one JSON object to stdout");
   c->add_flag("-q,--quiet", o.quiet, "print nothing but errors");
   c->add_flag("--no-plots", o.no_plots, "no residual figures");
+  c->add_flag("--no-discover", o.no_discover,
+              "no discovered term (sparse regression on a library) after the named effects");
   c->add_option("--max-effects", o.max_effects,
                  "rounds: effects to name at most (rounds go on while an effect is named and "
                  "structure remains above the noise floor)")
@@ -202,6 +235,7 @@ int run_diagnose(const DiagnoseCommandOptions& o) {
   dopt.max_effects = o.max_effects;
   dopt.threads = o.threads;
   dopt.max_fit_runs = o.max_fit_runs;
+  dopt.discover = !o.no_discover;
   ModelFile model;
   std::vector<DiagnoseRun> runs;
   std::string model_source;
@@ -272,6 +306,9 @@ int run_diagnose(const DiagnoseCommandOptions& o) {
     for (EffectKind k : res.effects_named)
       std::printf("  %s: %s\n", effect_name(k), effect_parameters_text(res.effects, k).c_str());
     std::printf("  verdict: %s\n", res.verdict.text().c_str());
+    if (res.discovered) std::printf("  %s\n", res.discovered->brief_report().c_str());
+    if (res.discovered && res.discovered->kept)
+      std::printf("  %s\n", discovered_verdict_text(*res.discovered).c_str());
   }
   return 0;
 }

@@ -16,6 +16,7 @@ struct DiagnoseCommandOptions {
   bool json = false;
   bool quiet = false;
   bool no_plots = false;
+  bool no_discover = false;  ///< --no-discover: no discovered term after the named effects
   /// --max-effects: rounds at most; they go on while an effect is named and structure remains
   std::size_t max_effects = 3;
   unsigned threads = 0;

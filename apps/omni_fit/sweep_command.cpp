@@ -125,7 +125,11 @@ int run_sweep(const SweepCommandOptions& o) {
     std::fprintf(stderr, "omni_fit sweep: %s\n", e.what());
     return apps::exit_status(apps::ExitCode::kUsage);
   }
-  if (kinds.empty()) kinds.assign(kAllEffectKinds.begin(), kAllEffectKinds.end());
+  if (kinds.empty()) {
+    for (EffectKind k : kAllEffectKinds) {
+      if (effect_spec(k).candidate) kinds.push_back(k);  // (not the discovered term)
+    }
+  }
   const std::vector<double> noises = o.quick ? std::vector<double>{5e-5} : std::vector<double>{5e-5, 2e-4};
   std::vector<SweepCase> cases;
   for (EffectKind k : kinds) {

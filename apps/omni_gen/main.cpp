@@ -79,6 +79,7 @@ struct PaperArgs {
   bool unrecorded_disturbance = false;  // --disturbance-pulses act, their column is not written
   int pose = -1;  // -1: the paper's poses; K: only sine pose K (sine and square runs there)
   std::string disturbance_pulses;  // "AMPLITUDE_V[,WIDTH_S[,PERIOD_S]]"; empty: none
+  std::string invented;            // an invented effect (invented_effects.hpp); empty: none
 };
 
 /// Parses --disturbance-pulses AMPLITUDE_V[,WIDTH_S[,PERIOD_S]] into `out`; returns an error text.
@@ -120,6 +121,13 @@ int run_paper(const PaperArgs& args, const std::string& cmd) {
     }
     options.sine_poses = {poses[static_cast<std::size_t>(args.pose)]};
     options.square_poses = options.sine_poses;
+  }
+  if (!args.invented.empty()) {
+    try {
+      options.invented = parse_invented_effect(args.invented, "--invented");
+    } catch (const Error& e) {
+      return fail("--invented", e.message());
+    }
   }
   if (!args.disturbance_pulses.empty()) {
     const std::string why = parse_pulses(args.disturbance_pulses, options.disturbance_pulses);
@@ -262,6 +270,15 @@ int main(int argc, char** argv) {
                   "with --disturbance-pulses: the pulses act on the plant but their disturbance_v "
                   "column is not written (an external_disturbance the dataset does not know; "
                   "dataset.json's truth has them)");
+  paper
+      ->add_option("--invented", args.invented,
+                   "an invented effect no model knows, on every run, not recorded (truth.json "
+                   "says it; for trying diagnose in the open world): lugre (a dynamic friction "
+                   "with a bristle state), drift (a friction level that drifts between runs) or "
+                   "hysteresis (a frictional lag in velocity), with PARAM=VALUE of level_v, "
+                   "breakaway_v, velocity_rad_s, stiffness_v_per_rad, lag_s, drift; e.g. "
+                   "lugre:level_v=0.008")
+      ->type_name("KIND[:PARAM=VALUE,...]");
   paper->add_flag("--no-coulomb", args.no_coulomb, "turn the bundled Coulomb friction off");
   paper->add_flag("--truth-columns", args.truth_columns,
                   "add the columns theta_true, theta_dot_true, v_eff, alpha_true, c_true, "

@@ -69,8 +69,15 @@ json format_effects(const Effects& e) {
   json list = json::array();
   for (EffectKind kind : active_effects(e)) {
     json params = json::object();
-    for (const EffectParameter& p : stored_effect_parameters(kind)) params[p.name] = num(e.*p.member);
-    list.push_back({{"effect", effect_name(kind)}, {"parameters", params}});
+    for (const EffectParameter& p : stored_effect_parameters(kind)) {
+      // The discovered term lists only its non-zero terms (the others read back as 0).
+      if (detail::omitted_when_zero(kind, p) && e.*p.member == 0.0) continue;
+      params[p.name] = num(e.*p.member);
+    }
+    json entry = {{"effect", effect_name(kind)}, {"parameters", params}};
+    // Its equation, for the reader (informational: read_model_file reads the parameters).
+    if (kind == EffectKind::kDiscovered) entry["equation"] = discovered_equation(e);
+    list.push_back(entry);
   }
   return list;
 }
@@ -120,7 +127,8 @@ Effects parse_effects(const json& list, const std::string& file) {
     // object to this entry, and its field names the entry's key path.
     Effects one;
     for (const EffectParameter& p : known) {
-      const bool optional = p.member == &Effects::coulomb_smoothing_rad_s;
+      const bool optional =
+          p.member == &Effects::coulomb_smoothing_rad_s || detail::omitted_when_zero(kind, p);
       if (optional && !params.contains(p.name)) continue;
       one.*p.member = get_num(params, p.name, file, ppath + ".");
     }

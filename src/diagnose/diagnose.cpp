@@ -1,4 +1,5 @@
 #include "alphainv/diagnose/diagnose.hpp"
+#include "alphainv/diagnose/discovered_term.hpp"
 #include "diagnose_stages.hpp"
 
 #include <algorithm>
@@ -121,8 +122,6 @@ std::vector<ResidualSeries> residual_series(const std::vector<DiagnoseRun>& runs
 
 namespace diagnose_detail {
 
-namespace {
-
 TorqueResidual torque_residual(const std::vector<DiagnoseRun>& runs,
                                const std::vector<std::size_t>& fit_runs,
                                const std::vector<SimulationResult>& sims, const Effects& current) {
@@ -144,12 +143,17 @@ TorqueResidual torque_residual(const std::vector<DiagnoseRun>& runs,
       const double n = (ddth[k] + s.damping[k] * dth[k]) / bt - u;
       if (!std::isfinite(n)) continue;
       tr.n_hat.push_back(n);
+      tr.damping_torque.push_back(s.damping[k] * dth[k] / bt);
+      tr.plant_input.push_back(u);
       tr.theta.push_back(d.theta[k]);
       tr.theta_dot.push_back(dth[k]);
+      tr.run.push_back(i);
     }
   }
   return tr;
 }
+
+namespace {
 
 /// Least squares n̂ ≈ X·b; returns b and R² (NaN when singular).
 Eigen::VectorXd regress(const std::vector<std::vector<double>>& cols, const std::vector<double>& y,
@@ -733,7 +737,8 @@ RoundModel initial_model(const std::vector<DiagnoseRun>& runs_in, const Prepared
   if (!effect_active(m.effects, EffectKind::kAsymmetricFriction)) m.effects.asymmetric_smoothing_rad_s = eps;
   if (!effect_active(m.effects, EffectKind::kPositionDependentFriction)) m.effects.position_smoothing_rad_s = eps;
   for (EffectKind k : kAllEffectKinds) {
-    if (effect_active(m.effects, k)) m.named.push_back(k);
+    // (a discovered term given with the model stays as it is: it is not refitted as a candidate)
+    if (effect_active(m.effects, k) && effect_spec(k).candidate) m.named.push_back(k);
   }
   return m;
 }
@@ -1382,6 +1387,11 @@ void DiagnoseOptions::validate() const {
         kAllEffectKinds.end()) {
       bad(field, "an effect of the catalogue", static_cast<double>(candidates[i]));
     }
+    if (!effect_spec(candidates[i]).candidate) {
+      throw Error(std::string(effect_name(candidates[i])) +
+                      " is not a candidate: it is fitted after the named effects (discover)",
+                  {}, 0, field);
+    }
     if (std::find(candidates.begin(), candidates.begin() + static_cast<std::ptrdiff_t>(i),
                   candidates[i]) != candidates.begin() + static_cast<std::ptrdiff_t>(i)) {
       throw Error(std::string("expected each effect once, found ") + effect_name(candidates[i]) +
@@ -1426,7 +1436,11 @@ DiagnoseResult diagnose(const std::vector<DiagnoseRun>& runs_given, const Diagno
     }
   }
   std::vector<EffectKind> catalogue = opt.candidates;
-  if (catalogue.empty()) catalogue.assign(kAllEffectKinds.begin(), kAllEffectKinds.end());
+  if (catalogue.empty()) {
+    for (EffectKind k : kAllEffectKinds) {
+      if (effect_spec(k).candidate) catalogue.push_back(k);
+    }
+  }
   // `none` first: the others are judged against it.
   catalogue.erase(std::remove(catalogue.begin(), catalogue.end(), EffectKind::kNone), catalogue.end());
   catalogue.insert(catalogue.begin(), EffectKind::kNone);
@@ -1515,6 +1529,34 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
       }
     }
   }
+  // --- the discovered term (discovered_term.hpp): when structure remains after the named
+  // effects, a sparse term for the rest, fitted on the fit windows, judged on all runs ---------
+  if (opt.discover && res.termination != DiagnoseTermination::kFailure &&
+      res.termination != DiagnoseTermination::kExplained) {
+    const auto sims = simulate_diagnosed(runs_in, model.effects, model.scales, opt.simulation,
+                                         opt.threads, model.alpha);
+    if (judge_residual(residual_series(runs_in, sims), res.noise_floor).verdict ==
+        ResidualVerdict::kStructureRemains) {
+      std::vector<DiagnoseRun> windows;
+      for (std::size_t i : prepared.fit_runs) windows.push_back(prepared.runs[i]);
+      DiscoveredTermOptions dopt;
+      dopt.significance = opt.significance;
+      dopt.threads = opt.threads;
+      dopt.simulation = opt.simulation;
+      dopt.max_residuals_per_run = opt.max_residuals_per_run;
+      DiscoveredBase base{model.effects, model.scales, model.alpha, {}};
+      if (reid.usable()) base.reidentify = [&reid](const Effects& e) { return reid.fit(e); };
+      auto found = std::make_shared<DiscoveredTermResult>(
+          discover_term(windows, runs_in, base, dopt, res.noise_floor.rms));
+      if (found->ok && found->kept) {
+        model.effects = found->effects;
+        model.scales = found->scales;
+        model.alpha = found->alpha;
+      }
+      res.discovered = found;
+    }
+  }
+  // --- end of the discovered term ----------------------------------------------------------
   res.effects = model.effects;
   res.scales = model.scales;
   res.alpha = model.alpha;
@@ -1523,6 +1565,11 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
   res.after = locate(runs_in, sims1);
   res.error_after = res.after.rms;
   res.verdict = judge_residual(residual_series(runs_in, sims1), res.noise_floor);
+  if (res.discovered && res.discovered->kept) {  // whether the discovered term carries the rest
+    auto d = std::make_shared<DiscoveredTermResult>(*res.discovered);
+    d->carries_remainder = res.verdict.verdict == ResidualVerdict::kExplained;
+    res.discovered = d;
+  }
   res.ok = !res.rounds.empty() && res.message.empty();
   res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   return res;

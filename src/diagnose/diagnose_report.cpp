@@ -1,4 +1,5 @@
 #include "alphainv/diagnose/diagnose_report.hpp"
+#include "alphainv/diagnose/discovered_term.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -117,6 +118,7 @@ std::string disturbance_csv(const DisturbanceFinding& f, const std::vector<Diagn
 std::string effect_parameters_text(const Effects& e, EffectKind kind) {
   std::string s;
   for (const auto& par : effect_parameters(kind)) {
+    if (detail::omitted_when_zero(kind, par) && e.*(par.member) == 0.0) continue;
     s += (s.empty() ? "" : ", ") + std::string(par.name) + " = " + fmt(e.*(par.member)) + " " +
          par.unit;
   }
@@ -167,12 +169,14 @@ std::string DiagnoseResult::full_report() const {
                           "the winner must beat this too");
     }
   }
+  if (discovered) s << "Discovered term: " << discovered->full_report();
   s << "Before:\n";
   for (const auto& f : before.findings) s << "  - " << f << "\n";
   s << "After:\n";
   for (const auto& f : after.findings) s << "  - " << f << "\n";
   if (disturbance.tried) s << "External disturbance: " << disturbance.message << "\n";
   if (std::isfinite(noise_floor.rms)) s << "Verdict: " << verdict.text() << "\n";
+  if (discovered && discovered->kept) s << "  " << discovered_verdict_text(*discovered) << "\n";
   return s.str();
 }
 
@@ -214,6 +218,22 @@ std::string diagnose_report_markdown(const DiagnoseResult& r, const std::vector<
     s << "\n";
   }
   s << disturbance_markdown(r.disturbance);
+  if (r.discovered) {
+    const DiscoveredTermResult& d = *r.discovered;
+    s << "## Discovered term\n\nStructure remained after the named effects: the torque the model "
+         "leaves was regressed sparsely on a library of functions of θ and θ̇ (cross-validated over "
+         "runs, the fewest terms within one standard error of the best), then refined by output "
+         "error (docs/diagnose.md).\n\n"
+      << d.brief_report() << "\n\n";
+    if (!d.terms.empty()) {
+      s << "| term | function | coefficient | ± SE | regression | ± SE |\n|---|---|---|---|---|---|\n";
+      for (const DiscoveredTermEntry& t : d.terms)
+        s << "| " << t.name << " | " << t.formula << " | " << fmt(t.coefficient) << " | "
+          << fmt(t.standard_error) << " | " << fmt(t.regression_coefficient) << " | "
+          << fmt(t.regression_standard_error) << " |\n";
+      s << "\n";
+    }
+  }
   s << "## The gap before and after\n\nRMS of θ − θ_sim over all runs: **" << fmt(r.error_before)
     << " → " << fmt(r.error_after) << "**";
   if (r.error_before > 0) s << " (" << fmt(100.0 * (1.0 - r.error_after / r.error_before), "%.1f") << " % less)";
@@ -232,6 +252,7 @@ std::string diagnose_report_markdown(const DiagnoseResult& r, const std::vector<
     << (r.verdict.verdict == ResidualVerdict::kExplained ? "Explained to the noise floor"
                                                          : "Structure remains")
     << "**: " << r.verdict.text() << "\n";
+  if (r.discovered && r.discovered->kept) s << "\n" << discovered_verdict_text(*r.discovered) << "\n";
   if (!r.verdict.unexplained.empty()) {
     s << "\n| where | RMS | × floor |\n|---|---|---|\n";
     for (const UnexplainedPart& u : r.verdict.unexplained)

@@ -57,7 +57,19 @@ struct ParamBlock {
 /// current model), with the measured θ, θ̇ at the same samples.
 struct TorqueResidual {
   std::vector<double> n_hat, theta, theta_dot;
+  std::vector<std::size_t> run;  ///< the run (index into the runs given) of each sample
+  /// C·θ̇/β̃ and u at the samples: n̂ changes by (g − 1)·C·θ̇/β̃ with a factor g on C, and by
+  /// (1/f − 1)·(n̂ + u) ≈ (1/f − 1)·u with a factor f on β̃ (the discovered term's regression
+  /// fits them beside its library, discovered_term.hpp).
+  std::vector<double> damping_torque, plant_input;
 };
+
+/// n̂ along `fit_runs` of `runs` from the current model's simulations `sims` (one per run; a
+/// failed one is skipped) with the effects `current` in the plant input; the first and last
+/// 20 ms of each run are left out (one-sided derivative fits).
+TorqueResidual torque_residual(const std::vector<DiagnoseRun>& runs,
+                               const std::vector<std::size_t>& fit_runs,
+                               const std::vector<SimulationResult>& sims, const Effects& current);
 
 /// What prepare_runs() makes of the runs: the fit runs cut to their windows and the two folds,
 /// as runs the simulations and fits take. Not copyable: `runs` points into `window_data` and

@@ -354,6 +354,7 @@ RunData simulate_planned_run(const ExperimentPlan& plan, std::size_t i) {
     const DisturbancePulses pulses = plan.options.disturbance_pulses;
     opt.disturbance_v = [pulses, i](double t) { return pulses.at(t, i); };
   }
+  if (plan.options.invented.active()) opt.hidden_torque_v = invented_torque(plan.options.invented, i);
   if (run.kind == "sine") {
     const SineReference ref(run.amplitude_rad, run.freq_hz);
     return run_closed_loop(omni, plan.options.controller, ref, run.duration_s, opt);
@@ -450,6 +451,8 @@ std::string truth_json(const ExperimentPlan& plan) {
              "+ frac(0.618 i) period_s (run i); added to n, recorded as disturbance_v");
     truth.raw("disturbance_pulses", pulses.text());
   }
+  // An invented effect (invented_effects.hpp): not recorded in the runs, said here.
+  if (o.invented.active()) truth.str("invented_effect", o.invented.text());
   return truth.text();
 }
 

@@ -333,6 +333,9 @@ RunData run_closed_loop(VirtualOmni& omni, const Controller& controller, const R
       (*theta_true)[k] = omni.theta();
       (*theta_dot_true)[k] = omni.theta_dot();
     }
+    if (options.hidden_torque_v) {  // not recorded: no model is told about it
+      known.disturbance_v += options.hidden_torque_v(t, omni.theta(), omni.theta_dot());
+    }
     (void)omni.step(v, known);
     if (theta_true != nullptr) {
       (*v_eff)[k] = omni.command_effective();

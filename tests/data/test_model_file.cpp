@@ -314,3 +314,40 @@ TEST(ModelFile, TheHashCoversEveryDatasetFolder) {
 
 }  // namespace
 }  // namespace alphainv
+
+namespace alphainv {
+namespace {
+
+TEST(ModelFile, ADiscoveredTermListsOnlyItsNonZeroTermsAndReadsBack) {
+  ModelFile m = sample_model();
+  m.effects.discovered_sign_v = -0.0041;
+  m.effects.discovered_stribeck_mid_v = -0.0025;
+  m.effects.discovered_smoothing_rad_s = 0.015;
+  m.effects.discovered_velocity_scale_rad_s = 1.5;
+  m.effects.discovered_position_center_rad = 0.002;
+  m.effects.discovered_position_scale_rad = 0.07;
+  const std::string text = format_model_file(m);
+  EXPECT_NE(text.find("\"discovered\""), std::string::npos) << text;
+  EXPECT_NE(text.find("\"discovered_sign_v\""), std::string::npos) << text;
+  EXPECT_EQ(text.find("\"discovered_one_v\""), std::string::npos) << text;  // zero: left out
+  EXPECT_NE(text.find("\"equation\": \"n = -0.0041 sigma - 0.0025 sigma exp(-(w/0.15)^2)"),
+            std::string::npos)
+      << text;
+  const ModelFile back = parse_model_file(text, "model.json");
+  for (const EffectParameter& p : effect_spec(EffectKind::kDiscovered))
+    EXPECT_EQ(back.effects.*p.member, m.effects.*p.member) << p.name;
+  // A bad scale names its key path.
+  std::string bad = text;
+  const std::string key = "\"discovered_velocity_scale_rad_s\": 1.5";
+  ASSERT_NE(bad.find(key), std::string::npos) << text;
+  bad.replace(bad.find(key), key.size(), "\"discovered_velocity_scale_rad_s\": -1");
+  try {
+    parse_model_file(bad, "m.json");
+    ADD_FAILURE() << "accepted a negative velocity scale";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.field(), "effects[0].parameters.discovered_velocity_scale_rad_s");
+  }
+}
+
+}  // namespace
+}  // namespace alphainv

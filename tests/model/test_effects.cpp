@@ -99,9 +99,10 @@ TEST(Effects, ModellingChoicesAreListedOnlyWhenAsked) {
   const std::set<EffectKind> with_smoothing = {
       EffectKind::kCoulombFriction, EffectKind::kStribeckFriction, EffectKind::kAsymmetricFriction,
       EffectKind::kPositionDependentFriction, EffectKind::kExternalDisturbance};
+  // The discovered term: its four scales (ε, v_r, θ_c, θ_r).
   for (EffectKind k : kAllEffectKinds) {
-    EXPECT_EQ(effect_parameters(k, true).size(),
-              effect_parameters(k).size() + (with_smoothing.count(k) ? 1u : 0u))
+    const std::size_t choices = with_smoothing.count(k) ? 1u : k == EffectKind::kDiscovered ? 4u : 0u;
+    EXPECT_EQ(effect_parameters(k, true).size(), effect_parameters(k).size() + choices)
         << effect_name(k);
   }
 }
@@ -245,9 +246,10 @@ TEST(EffectTable, EntriesAreInKindOrderWithUniqueNamesAndMembers) {
     EXPECT_TRUE(s.active(e)) << s.name;
     EXPECT_EQ(active_effects(e), std::vector<EffectKind>{s.kind});
   }
-  // 24 members of Effects, each in exactly one entry.
-  EXPECT_EQ(members.size(), 24u);
-  EXPECT_EQ(sizeof(Effects), 24 * sizeof(double));
+  // 45 members of Effects (22 of the named effects, 2 of the external disturbance, 17 + 4 of the
+  // discovered term), each in exactly one entry.
+  EXPECT_EQ(members.size(), 45u);
+  EXPECT_EQ(sizeof(Effects), 45 * sizeof(double));
 }
 
 TEST(EffectTable, SearchBoundsGridsAndStepsFollowTheDataScales) {
@@ -474,6 +476,80 @@ TEST(Effects, AnExternalDisturbanceIsATorqueOfTimeNotOfTheState) {
   EXPECT_EQ(effect_torque(e, 0.03, 0.5), 0.0);
   EXPECT_EQ(plant_torque(e, 1.0, 0.03, 0.5, KnownInputs{0.02, true}), 0.02);
   EXPECT_EQ(plant_input(e, 1.0, 0.1, 0.03, 0.5, KnownInputs{0.02, true}), 0.1 + 0.02);
+}
+
+}  // namespace
+}  // namespace alphainv
+
+namespace alphainv {
+namespace {
+
+// --- the discovered term -------------------------------------------------------------------------
+
+TEST(DiscoveredTerm, TorqueIsTheSumOfItsTermsOverTheLibrary) {
+  Effects e;
+  e.discovered_smoothing_rad_s = 0.02;
+  e.discovered_velocity_scale_rad_s = 1.5;
+  e.discovered_position_center_rad = 0.01;
+  e.discovered_position_scale_rad = 0.07;
+  e.discovered_sign_v = -0.004;
+  e.discovered_stribeck_mid_v = -0.003;
+  e.discovered_sin2_v = 0.002;
+  e.discovered_vel_abs_vel_v = 0.001;
+  EXPECT_TRUE(effect_active(e, EffectKind::kDiscovered));
+  EXPECT_EQ(active_effects(e), std::vector<EffectKind>{EffectKind::kDiscovered});
+  const double pi = 3.14159265358979323846;
+  for (double th : {-0.06, 0.0, 0.03}) {
+    for (double v : {-2.0, -0.1, 0.01, 0.3, 3.0}) {
+      const double sg = std::tanh(v / 0.02), w = v / 1.5, x = (th - 0.01) / 0.07;
+      const double expected = -0.004 * sg - 0.003 * sg * std::exp(-(w / 0.15) * (w / 0.15)) +
+                              0.002 * std::sin(2 * pi * x) + 0.001 * w * std::abs(w);
+      EXPECT_NEAR(effect_torque(e, th, v), expected, 1e-15) << th << " " << v;
+    }
+  }
+  // The library's functions in their order, at one point.
+  std::array<double, kDiscoveredTerms> phi{};
+  discovered_basis(e, 0.045, 0.75, phi);
+  const double sg = std::tanh(0.75 / 0.02), w = 0.5, x = 0.5;
+  const std::array<double, kDiscoveredTerms> want = {
+      1.0, sg, w, w * sg, w * w, w * w * w, sg * std::exp(-100.0), sg * std::exp(-w * w / 0.0225),
+      sg * std::exp(-1.0), x, sg * x, std::sin(pi * x), std::cos(pi * x), std::sin(2 * pi * x),
+      std::cos(2 * pi * x), std::sin(3 * pi * x), std::cos(3 * pi * x)};
+  for (std::size_t k = 0; k < kDiscoveredTerms; ++k) EXPECT_NEAR(phi[k], want[k], 1e-15) << k;
+  // The coefficient members are the table's first parameters, in library order.
+  const EffectSpec& spec = effect_spec(EffectKind::kDiscovered);
+  ASSERT_EQ(spec.parameter_count, kDiscoveredTerms + 4);
+  for (std::size_t k = 0; k < kDiscoveredTerms; ++k)
+    EXPECT_EQ(spec.parameters[k].member, kDiscoveredLibrary[k].coefficient) << k;
+  EXPECT_FALSE(spec.candidate);
+  for (const EffectSpec& s : kEffectCatalogue) {
+    if (s.kind != EffectKind::kDiscovered) {
+      EXPECT_TRUE(s.candidate) << s.name;
+    }
+  }
+}
+
+TEST(DiscoveredTerm, EquationAndSpecListOnlyTheNonZeroTerms) {
+  Effects e;
+  e.discovered_smoothing_rad_s = 0.015;
+  e.discovered_velocity_scale_rad_s = 1.5;
+  e.discovered_position_scale_rad = 0.07;
+  e.discovered_sign_v = -0.0041;
+  e.discovered_pos_v = 0.002;
+  EXPECT_EQ(discovered_equation(e),
+            "n = -0.0041 sigma + 0.002 x; sigma = tanh(theta'/0.015), w = theta'/1.5, "
+            "x = (theta - 0)/0.07");
+  EXPECT_EQ(discovered_equation(Effects{}), "n = 0");
+  const std::string spec = effect_spec_text(e, EffectKind::kDiscovered);
+  EXPECT_EQ(spec.find("discovered_one_v"), std::string::npos) << spec;  // a zero term is left out
+  Effects back;
+  apply_effect_spec(spec, back);
+  for (const EffectParameter& p : effect_spec(EffectKind::kDiscovered)) EXPECT_EQ(back.*p.member, e.*p.member) << p.name;
+  // A scale out of range names its field.
+  Effects bad = e;
+  bad.discovered_velocity_scale_rad_s = 0.0;
+  EXPECT_THROW(validate_effects(bad), Error);
+  EXPECT_EQ(effects_text(e).find("discovered_one_v"), std::string::npos);
 }
 
 }  // namespace

@@ -35,12 +35,15 @@
 ///    the best score the one with fewest parameters is taken.
 /// 4. With max_effects > 1 it goes round again with the named effects kept (and refitted),
 ///    until a round names `none` or the residual is explained to the noise floor.
-/// 5. The verdict (verdict.hpp): a noise floor estimated from the data, and whether the residual
+/// 5. With DiagnoseOptions::discover, when structure remains after the named effects: a
+///    discovered term for the rest (discovered_term.hpp), kept when it cuts the RMS over all runs.
+/// 6. The verdict (verdict.hpp): a noise floor estimated from the data, and whether the residual
 ///    of the final model is explained to it or where structure remains, and how big.
 /// Offline; never throws on what the data cannot support: the result says.
 
 #include <cstddef>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -54,6 +57,8 @@
 #include "alphainv/simulate/simulate.hpp"
 
 namespace alphainv {
+
+struct DiscoveredTermResult;  // discovered_term.hpp
 
 /// Factors on the model's coefficients, fitted together with an effect: c[n] multiplies C_n (the
 /// α-model's value at breakpoint n, eq. (38); a linear model has c[0] only) and beta[j] multiplies
@@ -96,6 +101,10 @@ struct DiagnoseOptions {
   /// before the output-error fit; needs an α-model and sine runs under a P law. false: the
   /// output-error fit alone, from equation-error or scanned starts.
   bool reidentify = true;
+  /// After the named effects, when the verdict says structure remains: a discovered term
+  /// (discovered_term.hpp) fitted by sparse regression and output error, kept when it cuts the
+  /// RMS over all runs by significance/2.
+  bool discover = true;
 
   /// Throws alphainv::Error naming the field (e.g. "significance", "candidates[2]") when a value
   /// is out of range: max_effects, max_fit_runs and max_residuals_per_run ≥ 1, fit_window_s
@@ -211,6 +220,10 @@ struct DiagnoseResult {
   DisturbanceFinding disturbance;
   double error_before = std::numeric_limits<double>::quiet_NaN();  ///< RMS of θ − θ_sim, all runs
   double error_after = std::numeric_limits<double>::quiet_NaN();
+  /// The discovered term tried after the named effects (DiagnoseOptions::discover), kept or not
+  /// (its `kept`; kept: in `effects`; effects_named lists the catalogue's named effects only);
+  /// nullptr: not tried (explained, not usable, or switched off).
+  std::shared_ptr<const DiscoveredTermResult> discovered;
   std::vector<std::size_t> fit_runs;  ///< indices of the runs used to fit and score
   double seconds = 0.0;               ///< wall time
 

@@ -12,6 +12,8 @@
 ///       − σ(θ̇)·max(0, Fc0 + s·θ)                         position_dependent_friction
 ///     (+ d(t): a torque of time, not of the state, external_disturbance: per run, the run's
 ///      `disturbance_v` column, plant_input.hpp; the table entry carries its size)
+///       + Σ_k c_k·φ_k(θ, θ̇)                               discovered (a fixed library φ,
+///                                                           kDiscoveredLibrary; sparse c)
 /// with σ(θ̇) = tanh(θ̇/ε) (each friction effect has its own smoothing ε, a modelling choice),
 /// h⁺ = (1 + σ)/2, h⁻ = (1 − σ)/2 (the direction weights), and,
 /// with τ the command delay (time_delay), Z the deadzone Z(v) = sign(v)·max(|v| − d, 0) (deadzone)
@@ -72,10 +74,130 @@ struct Effects {
   /// [command unit] (the series itself is per run: the `disturbance_v` column of plant_input.hpp)
   double disturbance_rms_v = 0.0;
   double disturbance_window_s = 0.05;  ///< its windows [s], > 0 (external_disturbance.hpp)
+  /// The discovered term (omni_fit diagnose's sparse regression, diagnose/discovered_term.hpp):
+  /// coefficients c_k [command unit] of the fixed library φ_k (kDiscoveredLibrary, in that
+  /// order), with σ = tanh(θ̇/ε), w = θ̇/v_r, x = (θ − θ_c)/θ_r; 0: the term is not used.
+  double discovered_one_v = 0.0;          ///< c of 1
+  double discovered_sign_v = 0.0;         ///< c of σ
+  double discovered_vel_v = 0.0;          ///< c of w
+  double discovered_abs_vel_v = 0.0;      ///< c of w·σ (≈ |w|)
+  double discovered_vel_abs_vel_v = 0.0;  ///< c of w·|w|
+  double discovered_vel_cubed_v = 0.0;    ///< c of w³
+  double discovered_stribeck_fast_v = 0.0;  ///< c of σ·exp(−(w/0.05)²)
+  double discovered_stribeck_mid_v = 0.0;   ///< c of σ·exp(−(w/0.15)²)
+  double discovered_stribeck_slow_v = 0.0;  ///< c of σ·exp(−(w/0.5)²)
+  double discovered_pos_v = 0.0;          ///< c of x
+  double discovered_sign_pos_v = 0.0;     ///< c of σ·x
+  double discovered_sin1_v = 0.0;         ///< c of sin(π·x)
+  double discovered_cos1_v = 0.0;         ///< c of cos(π·x)
+  double discovered_sin2_v = 0.0;         ///< c of sin(2π·x)
+  double discovered_cos2_v = 0.0;         ///< c of cos(2π·x)
+  double discovered_sin3_v = 0.0;         ///< c of sin(3π·x)
+  double discovered_cos3_v = 0.0;         ///< c of cos(3π·x)
+  double discovered_smoothing_rad_s = 1e-3;     ///< its σ's smoothing ε [position unit/s], > 0
+  double discovered_velocity_scale_rad_s = 1.0; ///< v_r [position unit/s], > 0
+  double discovered_position_center_rad = 0.0;  ///< θ_c [position unit]
+  double discovered_position_scale_rad = 1.0;   ///< θ_r [position unit], > 0
 
   /// Longest delay accepted [s] (delay lines are sized from it).
   static constexpr double kMaxDelayS = 1.0;
 };
+
+/// One function φ_k of the discovered term's library.
+struct DiscoveredFunction {
+  double Effects::*coefficient;  ///< where its coefficient c_k lives
+  const char* formula;           ///< e.g. "tanh(theta'/eps)" (sigma, w, x as in Effects)
+};
+
+/// The number of functions of the discovered term's library.
+inline constexpr std::size_t kDiscoveredTerms = 17;
+
+/// The discovered term's library, in the order of discovered_basis() (Effects' comments).
+inline constexpr std::array<DiscoveredFunction, kDiscoveredTerms> kDiscoveredLibrary = {{
+    {&Effects::discovered_one_v, "1"},
+    {&Effects::discovered_sign_v, "sigma"},
+    {&Effects::discovered_vel_v, "w"},
+    {&Effects::discovered_abs_vel_v, "w sigma"},
+    {&Effects::discovered_vel_abs_vel_v, "w |w|"},
+    {&Effects::discovered_vel_cubed_v, "w^3"},
+    {&Effects::discovered_stribeck_fast_v, "sigma exp(-(w/0.05)^2)"},
+    {&Effects::discovered_stribeck_mid_v, "sigma exp(-(w/0.15)^2)"},
+    {&Effects::discovered_stribeck_slow_v, "sigma exp(-(w/0.5)^2)"},
+    {&Effects::discovered_pos_v, "x"},
+    {&Effects::discovered_sign_pos_v, "sigma x"},
+    {&Effects::discovered_sin1_v, "sin(pi x)"},
+    {&Effects::discovered_cos1_v, "cos(pi x)"},
+    {&Effects::discovered_sin2_v, "sin(2 pi x)"},
+    {&Effects::discovered_cos2_v, "cos(2 pi x)"},
+    {&Effects::discovered_sin3_v, "sin(3 pi x)"},
+    {&Effects::discovered_cos3_v, "cos(3 pi x)"},
+}};
+
+/// The library's Stribeck velocities, as fractions of v_r (the three σ·exp(−(w/s)²) terms).
+inline constexpr std::array<double, 3> kDiscoveredStribeckFractions = {0.05, 0.15, 0.5};
+
+/// φ_k(θ, θ̇) of the library (kDiscoveredLibrary order) with the scales of `e` (ε, v_r, θ_c, θ_r).
+/// Real-time safe.
+inline void discovered_basis(const Effects& e, double theta, double theta_dot,
+                             std::array<double, kDiscoveredTerms>& phi) noexcept {
+  constexpr double kHalfTurn = 3.14159265358979323846;  // π
+  const double sg = std::tanh(theta_dot / e.discovered_smoothing_rad_s);
+  const double w = theta_dot / e.discovered_velocity_scale_rad_s;
+  const double x = (theta - e.discovered_position_center_rad) / e.discovered_position_scale_rad;
+  phi[0] = 1.0;
+  phi[1] = sg;
+  phi[2] = w;
+  phi[3] = w * sg;
+  phi[4] = w * std::abs(w);
+  phi[5] = w * w * w;
+  for (std::size_t j = 0; j < kDiscoveredStribeckFractions.size(); ++j) {
+    const double z = w / kDiscoveredStribeckFractions[j];
+    phi[6 + j] = sg * std::exp(-z * z);
+  }
+  phi[9] = x;
+  phi[10] = sg * x;
+  for (int m = 1; m <= 3; ++m) {
+    phi[static_cast<std::size_t>(9 + 2 * m)] = std::sin(m * kHalfTurn * x);
+    phi[static_cast<std::size_t>(10 + 2 * m)] = std::cos(m * kHalfTurn * x);
+  }
+}
+
+/// Whether any coefficient of the discovered term is non-zero.
+inline bool discovered_active(const Effects& e) noexcept {
+  for (const DiscoveredFunction& f : kDiscoveredLibrary) {
+    if (e.*f.coefficient != 0.0) return true;
+  }
+  return false;
+}
+
+/// Σ_k c_k·φ_k(θ, θ̇) [command unit]: the discovered term. Real-time safe.
+inline double discovered_torque(const Effects& e, double theta, double theta_dot) noexcept {
+  std::array<double, kDiscoveredTerms> phi;
+  discovered_basis(e, theta, theta_dot, phi);
+  double n = 0.0;
+  for (std::size_t k = 0; k < kDiscoveredTerms; ++k) n += e.*kDiscoveredLibrary[k].coefficient * phi[k];
+  return n;
+}
+
+/// The discovered term as an equation with its non-zero terms and scales, e.g.
+/// "n = -0.00412 sigma + 0.0021 sigma exp(-(w/0.15)^2); sigma = tanh(theta'/0.001),
+/// w = theta'/0.21, x = (theta - 0)/0.07"; "n = 0" when off.
+inline std::string discovered_equation(const Effects& e) {
+  std::string eq;
+  for (const DiscoveredFunction& f : kDiscoveredLibrary) {
+    const double c = e.*f.coefficient;
+    if (c == 0.0) continue;
+    char buf[48];
+    std::snprintf(buf, sizeof buf, "%.4g", std::abs(c));
+    eq += std::string(eq.empty() ? (c < 0 ? "-" : "") : (c < 0 ? " - " : " + ")) + buf +
+          (std::string(f.formula) == "1" ? "" : std::string(" ") + f.formula);
+  }
+  if (eq.empty()) return "n = 0";
+  return "n = " + eq + "; sigma = tanh(theta'/" + detail::num(e.discovered_smoothing_rad_s) +
+         "), w = theta'/" + detail::num(e.discovered_velocity_scale_rad_s) + ", x = (theta - " +
+         detail::num(e.discovered_position_center_rad) + ")/" +
+         detail::num(e.discovered_position_scale_rad);
+}
 
 /// n(θ, θ̇) [command unit]: the torque-like effects (file comment). Real-time safe.
 inline double effect_torque(const Effects& e, double theta, double theta_dot) noexcept {
@@ -102,6 +224,7 @@ inline double effect_torque(const Effects& e, double theta, double theta_dot) no
     const double level = std::max(0.0, e.position_coulomb_v + e.position_slope_v_per_rad * theta);
     n -= std::tanh(theta_dot / e.position_smoothing_rad_s) * level;
   }
+  if (discovered_active(e)) n += discovered_torque(e, theta, theta_dot);
   return n;
 }
 
@@ -128,6 +251,7 @@ enum class EffectKind {
   kAsymmetricFriction,
   kPositionDependentFriction,
   kExternalDisturbance,
+  kDiscovered,  ///< the discovered term: fitted after the named effects, not a candidate
   kCount,  ///< the number of kinds (not a kind): sizes the table
 };
 
@@ -206,8 +330,9 @@ struct EffectParameter {
   bool sweep_times_first = false;
 };
 
-/// The most parameters one effect has (modelling choices included).
-inline constexpr std::size_t kMaxEffectParameters = 6;
+/// The most parameters one effect has (modelling choices included): the discovered term's
+/// library and its four scales.
+inline constexpr std::size_t kMaxEffectParameters = kDiscoveredTerms + 4;
 
 /// Everything the code knows about one effect of the catalogue.
 struct EffectSpec {
@@ -251,6 +376,10 @@ struct EffectSpec {
   /// tries it only when that one is among a round's two best candidates, and names it over that
   /// one only when it beats it in cross-validation (its extra parameters earn their place).
   EffectKind refines = EffectKind::kNone;
+  /// A candidate of `omni_fit diagnose` and a case of `omni_fit sweep`. false: the discovered
+  /// term, which diagnose fits by sparse regression after the named effects
+  /// (diagnose/discovered_term.hpp) instead of searching it.
+  bool candidate = true;
 
   /// The parameters, modelling choices included.
   const EffectParameter* begin() const noexcept { return parameters.data(); }
@@ -285,6 +414,39 @@ inline void no_bounds(const EffectScales&, double, double& lo, double& hi) {
   lo = -std::numeric_limits<double>::infinity(), hi = std::numeric_limits<double>::infinity();
 }
 inline std::vector<double> column(std::size_t n, double value) { return std::vector<double>(n, value); }
+inline void coefficient_bounds(const EffectScales& s, double, double& lo, double& hi) {
+  lo = -2.0 * s.v_max, hi = 2.0 * s.v_max;
+}
+/// The discovered term's scales from the data: ε = 1 % and v_r = 100 % of the RMS velocity,
+/// θ_c and θ_r the middle and half the range of θ.
+inline void discovered_scales(const EffectScales& s, Effects& e) {
+  const double v = s.theta_dot_rms > 0.0 && std::isfinite(s.theta_dot_rms) ? s.theta_dot_rms : 1.0;
+  e.discovered_smoothing_rad_s = 0.01 * v;
+  e.discovered_velocity_scale_rad_s = v;
+  e.discovered_position_center_rad = 0.5 * (s.theta_min + s.theta_max);
+  const double half = 0.5 * (s.theta_max - s.theta_min);
+  e.discovered_position_scale_rad = half > 0.0 && std::isfinite(half) ? half : 1.0;
+}
+/// The discovered term's plain equation-error start: the data's scales and least squares of n̂
+/// on the whole library (the sparse fit is diagnose's, discovered_term.hpp).
+inline void discovered_least_squares_start(const TorqueRegression& r, const EffectScales& s,
+                                           Effects& e) {
+  discovered_scales(s, e);
+  std::vector<std::vector<double>> cols(kDiscoveredTerms, std::vector<double>(r.size()));
+  std::array<double, kDiscoveredTerms> phi{};
+  for (std::size_t k = 0; k < r.size(); ++k) {
+    discovered_basis(e, r.theta()[k], r.theta_dot()[k], phi);
+    for (std::size_t j = 0; j < kDiscoveredTerms; ++j) cols[j][k] = phi[j];
+  }
+  const std::vector<double> b = r.fit(cols, nullptr);
+  for (std::size_t j = 0; j < kDiscoveredTerms && j < b.size(); ++j) {
+    e.*kDiscoveredLibrary[j].coefficient = std::isfinite(b[j]) ? std::clamp(b[j], -s.v_max, s.v_max) : 0.0;
+  }
+}
+/// A parameter a spec or a text may leave out: a discovered coefficient that is 0.
+inline bool omitted_when_zero(EffectKind kind, const EffectParameter& p) {
+  return kind == EffectKind::kDiscovered && !p.modelling_choice;
+}
 }  // namespace detail
 
 /// The one effect table, in EffectKind order ("none" first).
@@ -617,6 +779,57 @@ inline const std::array<EffectSpec, kEffectKindCount> kEffectCatalogue = {{
      // Not searched: located in time after the rounds (diagnose; external_disturbance.hpp). The
      // sweep hides it as omni_gen's --disturbance-pulses with the column left out.
      nullptr, detail::start_only_grid, nullptr, nullptr, 0.0, nullptr, {0.05, 0.025}},
+    {EffectKind::kDiscovered, "discovered",
+     "the discovered term: n = sum_k c_k phi_k(theta, theta') over a fixed library (sigma = "
+     "tanh(theta'/eps), w = theta'/v_r, x = (theta - theta_c)/theta_r); fitted by sparse "
+     "regression after the named effects",
+     EffectRole::kTorque,
+     {{
+       {"discovered_one_v", &Effects::discovered_one_v, "command unit", "c of 1 (a constant)", ParameterCheck::kFinite, false,
+        detail::coefficient_bounds, detail::half_start_or_2pc_vmax},
+       {"discovered_sign_v", &Effects::discovered_sign_v, "command unit", "c of sigma = tanh(theta'/eps)", ParameterCheck::kFinite, false,
+        detail::coefficient_bounds, detail::half_start_or_2pc_vmax},
+       {"discovered_vel_v", &Effects::discovered_vel_v, "command unit", "c of w = theta'/v_r", ParameterCheck::kFinite, false,
+        detail::coefficient_bounds, detail::half_start_or_2pc_vmax},
+       {"discovered_abs_vel_v", &Effects::discovered_abs_vel_v, "command unit", "c of w sigma (about |w|)", ParameterCheck::kFinite, false,
+        detail::coefficient_bounds, detail::half_start_or_2pc_vmax},
+       {"discovered_vel_abs_vel_v", &Effects::discovered_vel_abs_vel_v, "command unit", "c of w |w|", ParameterCheck::kFinite, false,
+        detail::coefficient_bounds, detail::half_start_or_2pc_vmax},
+       {"discovered_vel_cubed_v", &Effects::discovered_vel_cubed_v, "command unit", "c of w^3", ParameterCheck::kFinite, false,
+        detail::coefficient_bounds, detail::half_start_or_2pc_vmax},
+       {"discovered_stribeck_fast_v", &Effects::discovered_stribeck_fast_v, "command unit", "c of sigma exp(-(w/0.05)^2)", ParameterCheck::kFinite, false,
+        detail::coefficient_bounds, detail::half_start_or_2pc_vmax},
+       {"discovered_stribeck_mid_v", &Effects::discovered_stribeck_mid_v, "command unit", "c of sigma exp(-(w/0.15)^2)", ParameterCheck::kFinite, false,
+        detail::coefficient_bounds, detail::half_start_or_2pc_vmax},
+       {"discovered_stribeck_slow_v", &Effects::discovered_stribeck_slow_v, "command unit", "c of sigma exp(-(w/0.5)^2)", ParameterCheck::kFinite, false,
+        detail::coefficient_bounds, detail::half_start_or_2pc_vmax},
+       {"discovered_pos_v", &Effects::discovered_pos_v, "command unit", "c of x = (theta - theta_c)/theta_r", ParameterCheck::kFinite, false,
+        detail::coefficient_bounds, detail::half_start_or_2pc_vmax},
+       {"discovered_sign_pos_v", &Effects::discovered_sign_pos_v, "command unit", "c of sigma x", ParameterCheck::kFinite, false,
+        detail::coefficient_bounds, detail::half_start_or_2pc_vmax},
+       {"discovered_sin1_v", &Effects::discovered_sin1_v, "command unit", "c of sin(pi x)", ParameterCheck::kFinite, false,
+        detail::coefficient_bounds, detail::half_start_or_2pc_vmax},
+       {"discovered_cos1_v", &Effects::discovered_cos1_v, "command unit", "c of cos(pi x)", ParameterCheck::kFinite, false,
+        detail::coefficient_bounds, detail::half_start_or_2pc_vmax},
+       {"discovered_sin2_v", &Effects::discovered_sin2_v, "command unit", "c of sin(2 pi x)", ParameterCheck::kFinite, false,
+        detail::coefficient_bounds, detail::half_start_or_2pc_vmax},
+       {"discovered_cos2_v", &Effects::discovered_cos2_v, "command unit", "c of cos(2 pi x)", ParameterCheck::kFinite, false,
+        detail::coefficient_bounds, detail::half_start_or_2pc_vmax},
+       {"discovered_sin3_v", &Effects::discovered_sin3_v, "command unit", "c of sin(3 pi x)", ParameterCheck::kFinite, false,
+        detail::coefficient_bounds, detail::half_start_or_2pc_vmax},
+       {"discovered_cos3_v", &Effects::discovered_cos3_v, "command unit", "c of cos(3 pi x)", ParameterCheck::kFinite, false,
+        detail::coefficient_bounds, detail::half_start_or_2pc_vmax},
+       {"discovered_smoothing_rad_s", &Effects::discovered_smoothing_rad_s, "position unit/s", "its sigma's tanh smoothing velocity eps", ParameterCheck::kPositiveIfActive, true,
+        detail::no_bounds, detail::half_start},
+       {"discovered_velocity_scale_rad_s", &Effects::discovered_velocity_scale_rad_s, "position unit/s", "velocity scale v_r", ParameterCheck::kPositiveIfActive, true,
+        detail::no_bounds, detail::half_start},
+       {"discovered_position_center_rad", &Effects::discovered_position_center_rad, "position unit", "position centre theta_c", ParameterCheck::kFinite, true,
+        detail::no_bounds, detail::half_start},
+       {"discovered_position_scale_rad", &Effects::discovered_position_scale_rad, "position unit", "position scale theta_r", ParameterCheck::kPositiveIfActive, true,
+        detail::no_bounds, detail::half_start}}},
+     kDiscoveredTerms + 4, [](const Effects& e) { return discovered_active(e); },
+     detail::discovered_least_squares_start, detail::start_only_grid, nullptr, nullptr, 0.0,
+     nullptr, {0.01, 0.005}, false, EffectKind::kNone, /*candidate=*/false},
 }};
 
 /// The table entry of `kind`.
@@ -693,6 +906,7 @@ inline std::string effects_text(const Effects& e) {
   for (EffectKind kind : active_effects(e)) {
     std::string params;
     for (const EffectParameter& p : effect_spec(kind)) {
+      if (detail::omitted_when_zero(kind, p) && e.*p.member == 0.0) continue;
       params += (params.empty() ? "" : ", ") + std::string(p.name) + " = " + detail::num(e.*p.member);
     }
     text += (text.empty() ? "" : "; ") + std::string(effect_name(kind)) + " (" + params + ")";
@@ -794,6 +1008,7 @@ inline std::string effect_spec_text(const Effects& e, EffectKind kind) {
   for (const EffectParameter& p : es) {
     char buf[40];
     const double x = e.*p.member;
+    if (detail::omitted_when_zero(kind, p) && x == 0.0) continue;  // (reads back as 0)
     for (int digits = 6; digits <= 17; ++digits) {  // the shortest %g form that reads back
       std::snprintf(buf, sizeof buf, "%.*g", digits, x);
       if (std::strtod(buf, nullptr) == x) break;

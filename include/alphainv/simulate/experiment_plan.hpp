@@ -21,6 +21,7 @@
 
 #include "alphainv/model/controller.hpp"
 #include "alphainv/data/dataset.hpp"
+#include "alphainv/simulate/invented_effects.hpp"
 #include "alphainv/simulate/virtual_omni.hpp"
 
 namespace alphainv {
@@ -90,6 +91,9 @@ struct ExperimentPlanOptions {
   PoseOffsetRange pose_offsets;       ///< true − set pose angles [deg]
   bool record_truth_columns = false;  ///< add run_closed_loop's truth columns to every run
   DisturbancePulses disturbance_pulses;  ///< known disturbance pulses (off by default)
+  /// An invented effect no model knows (invented_effects.hpp), on every run, not recorded
+  /// (truth.json says it). Generator-only: off by default.
+  InventedEffect invented;
   std::string joint = "yaw";          ///< dataset.json `joint`
   /// Recorded as dataset.json `generator` when not empty (e.g. the omni_gen command line).
   std::string generator_command;

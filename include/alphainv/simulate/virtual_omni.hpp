@@ -182,6 +182,11 @@ struct ClosedLoopOptions {
   /// The motor enable e(t_k), held over tick k (false: the amplifier gives nothing) and recorded
   /// as the `torque_enable` column (1/0). Empty: always on, no column.
   std::function<bool(double t_s)> torque_enable;
+  /// A torque on the joint [command unit] that the run does NOT record, from the true state
+  /// (t_k, θ, θ̇) at the start of tick k and held over it: generator- and test-only, for effects
+  /// no model knows (invented_effects.hpp). May keep state (called once per tick, in order).
+  /// Empty: none.
+  std::function<double(double t_s, double theta, double theta_dot)> hidden_torque_v;
 };
 
 /// Runs `omni` from its current state under a DIGITAL PID at its tick period T for `duration_s`:
