@@ -108,7 +108,7 @@ TEST(Effects, ModellingChoicesAreListedOnlyWhenAsked) {
 }
 
 TEST(Effects, TheKindsAreCountedByTheEnumSentinel) {
-  EXPECT_EQ(kEffectKindCount, 12u);
+  EXPECT_EQ(kEffectKindCount, 13u);
   EXPECT_EQ(kAllEffectKinds.size(), kEffectCatalogue.size());
   for (std::size_t k = 0; k < kEffectKindCount; ++k) {
     EXPECT_EQ(kAllEffectKinds[k], static_cast<EffectKind>(k));
