@@ -14,6 +14,7 @@
 #include "alphainv/simulate/reference.hpp"
 #include "plots.hpp"
 #include "support/model_dataset.hpp"
+#include "support/plot_files.hpp"
 
 namespace omni_fit {
 namespace {
@@ -38,45 +39,8 @@ void make_dataset(const std::vector<std::pair<double, double>>& poses,
   test::append_model_runs(plan, ds, data);
 }
 
-/// The numeric rows of a .dat file's block `index` (blocks are separated by two blank lines).
-std::vector<std::vector<double>> read_block(const fs::path& file, int index) {
-  std::ifstream in(file);
-  EXPECT_TRUE(in) << file;
-  std::vector<std::vector<double>> rows;
-  std::string line;
-  int block = 0, blanks = 0;
-  while (std::getline(in, line)) {
-    if (line.empty()) {
-      if (++blanks == 2) ++block;
-      continue;
-    }
-    blanks = 0;
-    if (line[0] == '#' || block != index) continue;
-    std::istringstream s(line);
-    std::vector<double> row;
-    std::string cell;
-    while (s >> cell) row.push_back(cell == "NaN" ? std::nan("") : std::stod(cell));
-    rows.push_back(row);
-  }
-  return rows;
-}
 
-/// A fresh folder under the system's temporary folder, removed when the test ends.
-struct TempDir {
-  explicit TempDir(const std::string& name)
-      : path(fs::temp_directory_path() /
-             ("alphainv_test_plots_" + name + "_" + std::to_string(::getpid()))) {
-    fs::remove_all(path);
-    fs::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-  fs::path path;
-};
 
-bool gnuplot_installed() { return std::system("command -v gnuplot > /dev/null 2>&1") == 0; }
 
 bool has(const std::vector<std::string>& v, const std::string& text) {
   for (const auto& s : v) {
@@ -118,7 +82,7 @@ TEST_F(PlotsTest, DataFilesCarryTheFitsNumbers) {
   ASSERT_TRUE(fit_.has_inertia_model);
   ASSERT_TRUE(fit_.alpha.ok);
   PlotOptions opt;
-  const TempDir tmp("data");
+  const test::ScopedTempDir tmp("plots", "data");
   opt.out_dir = tmp.path;
   opt.run_gnuplot = false;
   const PlotSummary s = write_plots(ds_, data_, fit_, opt);
@@ -135,7 +99,7 @@ TEST_F(PlotsTest, DataFilesCarryTheFitsNumbers) {
 
   // Bode of pose 2: one row per sine run, by frequency: measured gain/phase of the local fit, the
   // simulated fundamentals of the validation.
-  const auto bode = read_block(dir / "fig11_bode_pose2.dat", 0);
+  const auto bode = test::read_dat_block(dir / "fig11_bode_pose2.dat", 0);
   std::vector<const SineRunPoint*> pts;
   for (const auto& sp : fit_.sine_points) {
     if (sp.pose == 1) pts.push_back(&sp);
@@ -161,8 +125,8 @@ TEST_F(PlotsTest, DataFilesCarryTheFitsNumbers) {
   }
 
   // Fig 9 of pose 1: data points are C_data, β_data/kp; the curve is the α-model at the pose's I.
-  const auto c_points = read_block(dir / "fig09_c_alpha.dat", 0);
-  const auto c_curve = read_block(dir / "fig09_c_alpha.dat", 1);
+  const auto c_points = test::read_dat_block(dir / "fig09_c_alpha.dat", 0);
+  const auto c_curve = test::read_dat_block(dir / "fig09_c_alpha.dat", 1);
   std::size_t physical = 0;
   for (const auto& sp : fit_.sine_points) physical += sp.pose == 0 && sp.point.physical ? 1 : 0;
   ASSERT_EQ(c_points.size(), physical);
@@ -187,8 +151,8 @@ TEST_F(PlotsTest, DataFilesCarryTheFitsNumbers) {
   EXPECT_LT(c_curve.front()[0], c_points.front()[0]);
 
   // Fig 4: one row per pose: I and C_linear; the model curve is 1/(C̄0 I).
-  const auto lin_points = read_block(dir / "fig04_c_linear_inertia.dat", 0);
-  const auto lin_curve = read_block(dir / "fig04_c_linear_inertia.dat", 1);
+  const auto lin_points = test::read_dat_block(dir / "fig04_c_linear_inertia.dat", 0);
+  const auto lin_curve = test::read_dat_block(dir / "fig04_c_linear_inertia.dat", 1);
   ASSERT_EQ(lin_points.size(), 6u);
   for (std::size_t p = 0; p < 6; ++p) {
     EXPECT_NEAR(lin_points[p][0], fit_.poses[p].inertia, 1e-9 * fit_.poses[p].inertia);
@@ -203,7 +167,7 @@ TEST_F(PlotsTest, DataFilesCarryTheFitsNumbers) {
   // Fig 14: from 0.1 s before the square wave's first upward jump (t = 4 s: it starts at +Ar and
   // falls at 2 s) to 1 s after; measured θ and r are the run's samples; the α-model (of the kind
   // that made the data) follows the measurement more closely than the linear model.
-  const auto step = read_block(dir / "fig14_time_step.dat", 0);
+  const auto step = test::read_dat_block(dir / "fig14_time_step.dat", 0);
   ASSERT_EQ(step.size(), 1101u);
   EXPECT_NEAR(step.front()[0], 3.9, 1e-9);
   EXPECT_NEAR(step.back()[0], 5.0, 1e-9);
@@ -222,7 +186,7 @@ TEST_F(PlotsTest, DataFilesCarryTheFitsNumbers) {
 
 TEST_F(PlotsTest, GnuplotMissingLeavesDataAndScripts) {
   PlotOptions opt;
-  const TempDir tmp("missing");
+  const test::ScopedTempDir tmp("plots", "missing");
   opt.out_dir = tmp.path;
   const char* old_path = std::getenv("PATH");
   const std::string saved = old_path ? old_path : "";
@@ -244,7 +208,7 @@ TEST_F(PlotsTest, GnuplotMissingLeavesDataAndScripts) {
 
 TEST_F(PlotsTest, GnuplotFailingLeavesNoPng) {
   PlotOptions opt;
-  const TempDir tmp("failing");
+  const test::ScopedTempDir tmp("plots", "failing");
   opt.out_dir = tmp.path;
   opt.gnuplot = "false";  // runs, exits 1, writes nothing
   const PlotSummary s = write_plots(ds_, data_, fit_, opt);
@@ -261,9 +225,9 @@ TEST_F(PlotsTest, GnuplotFailingLeavesNoPng) {
 }
 
 TEST_F(PlotsTest, GnuplotDrawsCompletePngs) {
-  if (!gnuplot_installed()) GTEST_SKIP() << "gnuplot is not installed (Debian: gnuplot-nox)";
+  if (!test::gnuplot_installed()) GTEST_SKIP() << "gnuplot is not installed (Debian: gnuplot-nox)";
   PlotOptions opt;
-  const TempDir tmp("draw");
+  const test::ScopedTempDir tmp("plots", "draw");
   opt.out_dir = tmp.path;
   fs::create_directories(opt.out_dir / "plots");
   std::ofstream(opt.out_dir / "plots" / "fig13_time_sine.png") << "stale";  // from an older fit
@@ -294,8 +258,8 @@ TEST_F(PlotsTest, GnuplotDrawsCompletePngs) {
 TEST_F(PlotsTest, RelativeOutputFolderDraws) {
   // `omni_fit fit DATASET -o out/fit`: gnuplot changes into the plots folder before it reads the
   // script, so the script's path must not be relative to the caller's folder.
-  if (!gnuplot_installed()) GTEST_SKIP() << "gnuplot is not installed (Debian: gnuplot-nox)";
-  const TempDir tmp("relative");
+  if (!test::gnuplot_installed()) GTEST_SKIP() << "gnuplot is not installed (Debian: gnuplot-nox)";
+  const test::ScopedTempDir tmp("plots", "relative");
   const fs::path old_cwd = fs::current_path();
   fs::current_path(tmp.path);
   PlotOptions opt;
@@ -320,7 +284,7 @@ TEST(Plots, FiguresWithoutDataAreSkippedWithAReason) {
   no_time_domain.time_domain = false;
   const DatasetFit fit = fit_dataset(ds, data, no_time_domain);
   PlotOptions opt;
-  const TempDir tmp("no_sine");
+  const test::ScopedTempDir tmp("plots", "no_sine");
   opt.out_dir = tmp.path;
   opt.run_gnuplot = false;
   fs::create_directories(opt.out_dir / "plots");
@@ -356,7 +320,7 @@ TEST(Plots, FiguresWithoutDataAreSkippedWithAReason) {
   for (double f : {2.0, 3.0, 3.5, 4.0, 6.0}) {
     if (std::abs(f - 0.75 * f_res) < std::abs(f_shown - 0.75 * f_res)) f_shown = f;
   }
-  const auto sine = read_block(opt.out_dir / "plots" / "fig13_time_sine.dat", 0);
+  const auto sine = test::read_dat_block(opt.out_dir / "plots" / "fig13_time_sine.dat", 0);
   ASSERT_FALSE(sine.empty());
   EXPECT_NEAR(sine.back()[0], 6.0, 1e-9);
   EXPECT_NEAR(sine.back()[0] - sine.front()[0], 3.0 / f_shown, 2e-3);

@@ -14,6 +14,7 @@
 #include "alphainv/data/model_file.hpp"
 #include "alphainv/identify/validation.hpp"
 #include "support/model_dataset.hpp"
+#include "support/plot_files.hpp"
 #include "validation_plots.hpp"
 
 namespace omni_fit {
@@ -22,44 +23,8 @@ namespace {
 using namespace alphainv;
 namespace fs = std::filesystem;
 
-struct TempDir {
-  explicit TempDir(const std::string& name)
-      : path(fs::temp_directory_path() /
-             ("alphainv_test_validation_plots_" + name + "_" + std::to_string(::getpid()))) {
-    fs::remove_all(path);
-    fs::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-  fs::path path;
-};
 
-/// The numeric rows of block `index` of a .dat file (blocks separated by two blank lines).
-std::vector<std::vector<double>> read_block(const fs::path& file, int index) {
-  std::ifstream in(file);
-  EXPECT_TRUE(in) << file;
-  std::vector<std::vector<double>> rows;
-  std::string line;
-  int block = 0, blanks = 0;
-  while (std::getline(in, line)) {
-    if (line.empty()) {
-      if (++blanks == 2) ++block;
-      continue;
-    }
-    blanks = 0;
-    if (line[0] == '#' || block != index) continue;
-    std::istringstream s(line);
-    std::vector<double> row;
-    std::string cell;
-    while (s >> cell && cell[0] != '\'') row.push_back(cell == "NaN" ? std::nan("") : std::stod(cell));
-    rows.push_back(row);
-  }
-  return rows;
-}
 
-bool gnuplot_installed() { return std::system("command -v gnuplot > /dev/null 2>&1") == 0; }
 
 /// Four runs of the paper's α-model at one pose (three sines, one square), validated with the
 /// paper's linear model (not the α-model that made them: the fit % differ between runs).
@@ -104,7 +69,7 @@ TEST_F(ValidationPlotsTest, TheRunsShownAreThoseWithTheLowestFit) {
 }
 
 TEST_F(ValidationPlotsTest, DataFilesCarryTheValidationsNumbers) {
-  const TempDir tmp("data");
+  const test::ScopedTempDir tmp("validation_plots", "data");
   ValidationPlotOptions opt;
   opt.plot.out_dir = tmp.path;
   opt.plot.run_gnuplot = false;
@@ -114,7 +79,7 @@ TEST_F(ValidationPlotsTest, DataFilesCarryTheValidationsNumbers) {
   ASSERT_EQ(s.figures.size(), 1u + 2u * 4u);  // fit per run, then compare and resid per run
   EXPECT_EQ(s.figures[0].id, "validation_fit_per_run");
   const fs::path plots = tmp.path / "plots";
-  const auto per_run = read_block(plots / "validation_fit_per_run.dat", 0);
+  const auto per_run = test::read_dat_block(plots / "validation_fit_per_run.dat", 0);
   ASSERT_EQ(per_run.size(), 4u);
   for (std::size_t i = 0; i < 4; ++i) {
     EXPECT_EQ(per_run[i][0], static_cast<double>(i + 1));
@@ -123,7 +88,7 @@ TEST_F(ValidationPlotsTest, DataFilesCarryTheValidationsNumbers) {
   for (std::size_t i = 0; i < 4; ++i) {
     const ValidatedRun& v = result_.runs[i];
     const std::string n = std::to_string(i + 1);
-    const auto cmp = read_block(plots / ("validation_compare_run" + n + ".dat"), 0);
+    const auto cmp = test::read_dat_block(plots / ("validation_compare_run" + n + ".dat"), 0);
     ASSERT_EQ(cmp.size(), data_[i].size()) << n;  // 4000 samples: every one
     for (std::size_t k = 0; k < cmp.size(); k += 397) {
       EXPECT_NEAR(cmp[k][0], data_[i].t[k], 1e-12);
@@ -132,8 +97,8 @@ TEST_F(ValidationPlotsTest, DataFilesCarryTheValidationsNumbers) {
       EXPECT_NEAR(cmp[k][3], data_[i].theta[k] - v.theta_simulated[k], 1e-9);
     }
     ASSERT_TRUE(v.residual.valid) << v.residual.message;
-    const auto auto_rows = read_block(plots / ("validation_resid_run" + n + ".dat"), 0);
-    const auto cross_rows = read_block(plots / ("validation_resid_run" + n + ".dat"), 1);
+    const auto auto_rows = test::read_dat_block(plots / ("validation_resid_run" + n + ".dat"), 0);
+    const auto cross_rows = test::read_dat_block(plots / ("validation_resid_run" + n + ".dat"), 1);
     ASSERT_EQ(auto_rows.size(), v.residual.autocorrelation.size());
     ASSERT_EQ(cross_rows.size(), v.residual.cross_correlation.size());
     EXPECT_DOUBLE_EQ(auto_rows[0][2], 1.0);  // ρ_e(0)
@@ -150,7 +115,7 @@ TEST_F(ValidationPlotsTest, DataFilesCarryTheValidationsNumbers) {
   opt.max_points = 1000;
   (void)write_validation_plots(ds_, data_, result_, opt);
   const std::size_t n = data_[0].size(), step = (n + 999) / 1000;  // every step-th sample
-  const auto thin = read_block(plots / "validation_compare_run1.dat", 0);
+  const auto thin = test::read_dat_block(plots / "validation_compare_run1.dat", 0);
   EXPECT_EQ(thin.size(), (n + step - 1) / step);
   EXPECT_LE(thin.size(), 1000u);
   ASSERT_GT(thin.size(), 2u);
@@ -158,7 +123,7 @@ TEST_F(ValidationPlotsTest, DataFilesCarryTheValidationsNumbers) {
 }
 
 TEST_F(ValidationPlotsTest, TheSectionLinksEveryDrawnFigureOrSaysWhyNone) {
-  const TempDir tmp("draw");
+  const test::ScopedTempDir tmp("validation_plots", "draw");
   ValidationPlotOptions opt;
   opt.plot.out_dir = tmp.path;
   opt.max_runs = 1;
@@ -173,7 +138,7 @@ TEST_F(ValidationPlotsTest, TheSectionLinksEveryDrawnFigureOrSaysWhyNone) {
   EXPECT_TRUE(fs::exists(tmp.path / "plots" / "heldout_fit_per_run.gp"));
   EXPECT_FALSE(fs::exists(tmp.path / "plots" / "heldout_fit_per_run.png"));
   EXPECT_NE(missing.find("the 1 of the 4 validated runs with the lowest fit %"), std::string::npos);
-  if (!gnuplot_installed()) GTEST_SKIP() << "gnuplot not installed";
+  if (!test::gnuplot_installed()) GTEST_SKIP() << "gnuplot not installed";
   opt.plot.gnuplot = "gnuplot";
   const std::string md = draw_validation_figures(ds_, data_, result_, opt, "###", warning);
   EXPECT_TRUE(warning.empty()) << warning;
