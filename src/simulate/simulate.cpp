@@ -355,6 +355,7 @@ void simulate_digital(const JointModelAtPose& model, const Controller& ctl, bool
           ? init.command_history.front()
           : (open_loop ? r0.r : ctl.clamp(ctl.kp * (r0.r - init.theta) + ctl.ki * init.integral));
   p.effects = model.effects;
+  p.exact_constant_segments = true;  // the exact segment where n is free of the state
   std::unique_ptr<VirtualOmni> omni;
   std::string last_error;
   for (int substeps : {4, 16, 64, 256, 1000}) {  // as many as the stiffest effect needs

@@ -130,6 +130,7 @@ VirtualOmni::VirtualOmni(const VirtualOmniParams& params)
   delay_fraction_ = ticks - static_cast<double>(delay_ticks_);
   if (delay_fraction_ < kDelayFractionEps) delay_fraction_ = 0.0;
   delay_line_.assign(delay_ticks_ + 2, params_.initial_command_v);  // v_k … v_{k−m−1}
+  exact_segments_ = params_.exact_constant_segments && !torque_depends_on_state(params_.effects);
   reset();
 }
 
@@ -169,6 +170,10 @@ void VirtualOmni::integrate(double t0_s, double duration_s, double input_v,
                             const KnownInputs& known) noexcept {
   // θ̇ = Φ, Φ̇ = −C Φ + β̃ (u + n(θ, Φ, t) + d), eq. (11) with plant_input.hpp; C, β̃, the applied
   // command u and d constant over the segment.
+  if (exact_segments_) {
+    integrate_exact(duration_s, input_v, known);
+    return;
+  }
   const double c = damping_, bt = beta_tilde_;
   const Effects& fx = params_.effects;
   auto accel = [&](double t, double th, double om) noexcept {
@@ -188,6 +193,37 @@ void VirtualOmni::integrate(double t0_s, double duration_s, double input_v,
   }
   theta_ = th;
   theta_dot_ = om;
+}
+
+void VirtualOmni::integrate_exact(double duration_s, double input_v,
+                                  const KnownInputs& known) noexcept {
+  // The closed form of the file comment: Φ̇ = −C·Φ + a with a = β̃·(u + n + d) constant.
+  const double c = damping_, h = duration_s;
+  const double a = beta_tilde_ * (input_v + plant_torque(params_.effects, 0.0, theta_, theta_dot_,
+                                                         known));
+  const double ch = c * h;
+  if (!(ch > 1e-12)) {  // C·h at rounding level: constant acceleration
+    theta_ += h * theta_dot_ + 0.5 * a * h * h;
+    theta_dot_ += a * h;
+    return;
+  }
+  const double decayed = -std::expm1(-ch);  // 1 − e^(−Ch)
+  // rest = C·h − (1 − e^(−Ch)) = Σ_{k≥2} (−C·h)^k/k!: by its series where the difference would
+  // cancel (C·h < 1/4: the 14th term is below 1e-20 of the first), else directly.
+  double rest = 0.0;
+  if (ch < 0.25) {
+    double term = 0.5 * ch * ch;
+    for (int k = 3; k <= 14; ++k) {
+      rest += term;
+      term *= -ch / k;
+    }
+  } else {
+    rest = ch - decayed;
+  }
+  const double v_inf = a / c;  // the velocity the segment tends to
+  // θ(h) − θ0 = (u/C)·h + (θ̇0 − u/C)·(1 − e^(−Ch))/C = (θ̇0·(1 − e^(−Ch)) + (u/C)·rest)/C
+  theta_ += (theta_dot_ * decayed + v_inf * rest) / c;
+  theta_dot_ += (v_inf - theta_dot_) * decayed;
 }
 
 double VirtualOmni::gaussian() noexcept {

@@ -552,5 +552,32 @@ TEST(DiscoveredTerm, EquationAndSpecListOnlyTheNonZeroTerms) {
   EXPECT_EQ(effects_text(e).find("discovered_one_v"), std::string::npos);
 }
 
+// torque_depends_on_state() must agree with effect_torque() for every parameter of the catalogue:
+// a parameter that makes n vary with θ or θ̇ makes it true, a constant term (offset, the discovered
+// term's c_1) leaves it false. A new torque term missing from torque_depends_on_state() fails here.
+TEST(Effects, TorqueDependsOnStateExactlyWhenEffectTorqueVariesWithTheState) {
+  const double states[][2] = {{0.0, 0.0}, {0.3, 0.05}, {-0.7, -0.4}, {1.1, 2.0}, {0.013, -0.002}};
+  int constant_parameters = 0, state_parameters = 0;
+  for (EffectKind kind : kAllEffectKinds) {
+    const EffectSpec& spec = effect_spec(kind);
+    if (spec.role != EffectRole::kTorque) continue;
+    for (std::size_t i = 0; i < spec.parameter_count; ++i) {
+      const EffectParameter& p = spec.parameters[i];
+      if (p.modelling_choice) continue;
+      Effects e;
+      e.*p.member = 0.3;
+      const double n0 = effect_torque(e, states[0][0], states[0][1]);
+      bool varies = false;
+      for (const auto& s : states) varies = varies || effect_torque(e, s[0], s[1]) != n0;
+      EXPECT_EQ(torque_depends_on_state(e), varies) << spec.name << "." << p.name;
+      if (varies) ++state_parameters;
+      else if (n0 != 0.0) ++constant_parameters;  // a constant term (else: a scale alone, n = 0)
+    }
+  }
+  EXPECT_EQ(constant_parameters, 2);  // offset_v and discovered_one_v
+  EXPECT_GE(state_parameters, 20);
+  EXPECT_FALSE(torque_depends_on_state(Effects{}));
+}
+
 }  // namespace
 }  // namespace alphainv

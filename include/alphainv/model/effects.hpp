@@ -228,6 +228,22 @@ inline double effect_torque(const Effects& e, double theta, double theta_dot) no
   return n;
 }
 
+/// Whether effect_torque() depends on θ or θ̇ for these effects: false when only constant terms
+/// (the offset d0, the discovered term's constant c_1) are on, so that n is constant and the plant
+/// between ticks is linear with a constant input (simulate: the exact segment of virtual_omni.hpp).
+inline bool torque_depends_on_state(const Effects& e) noexcept {
+  if (e.coulomb_v > 0.0 || e.gravity_v != 0.0 || e.cogging_v != 0.0) return true;
+  if (e.stribeck_coulomb_v > 0.0 || e.stribeck_breakaway_v > 0.0) return true;
+  if (e.asymmetric_coulomb_pos_v > 0.0 || e.asymmetric_coulomb_neg_v > 0.0 ||
+      e.asymmetric_viscous_diff_v_s != 0.0)
+    return true;
+  if (e.position_coulomb_v != 0.0 || e.position_slope_v_per_rad != 0.0) return true;
+  for (const DiscoveredFunction& f : kDiscoveredLibrary) {
+    if (f.coefficient != &Effects::discovered_one_v && e.*f.coefficient != 0.0) return true;
+  }
+  return false;
+}
+
 /// S(Z(v)): the amplifier's deadzone, then its saturation [command unit]. Real-time safe.
 inline double amplifier(const Effects& e, double v) noexcept {
   if (e.deadzone_v > 0.0) {  // Z(v) = sign(v)·max(|v| − d, 0)

@@ -37,6 +37,12 @@
 /// when a fractional delay splits the tick in two). The input is constant on each segment, so the
 /// only error is RK4's own: against the exact sampled-data solution of the linear plant, 3e-14 rad
 /// over a 2 s step response at 4 substeps. validate() rejects effects too stiff for the step.
+/// With `exact_constant_segments` and an n free of the state, a segment of length h with the
+/// constant input u = β̃·(v_eff + n + d) is stepped exactly:
+///     θ̇(h) = θ̇0·e^(−Ch) + (u/C)·(1 − e^(−Ch)),
+///     θ(h)  = θ0 + (u/C)·h + (θ̇0 − u/C)·(1 − e^(−Ch))/C
+/// (1 − e^(−Ch) by expm1, so a small C·h loses nothing): the sampled-data solution itself, one
+/// exponential per segment instead of 16 evaluations of the torque.
 
 #include <cstddef>
 #include <cstdint>
@@ -73,6 +79,11 @@ struct VirtualOmniParams {
   rt::AlphaEstimatorConfig alpha_filter{};
   double tick_period_s = 1e-3;           ///< controller tick T [s]; the command is held over a tick
   int substeps = 4;                      ///< RK4 steps per tick, 1…1000
+  /// When the effects' torque does not depend on the state (torque_depends_on_state() is false:
+  /// no effect, or only constant ones), step each constant-input segment by the exact solution of
+  /// the linear plant instead of RK4 (file comment). Off by default, so that the generator's runs
+  /// stay RK4 bit for bit; the model simulation (simulate.hpp) turns it on.
+  bool exact_constant_segments = false;
   double initial_theta_rad = 0.0;        ///< θ(0) [rad]
   double initial_theta_dot_rad_s = 0.0;  ///< θ̇(0) [rad/s]
   /// The command before the first tick [command unit]: fills the delay line and sets the α filter's
@@ -150,11 +161,13 @@ class VirtualOmni {
   void integrate(double t0_s, double duration_s, double input_v, const KnownInputs& known) noexcept;
   void command_path(double command_v, const KnownInputs& known, double& u_early,
                     double& u_late) noexcept;
+  void integrate_exact(double duration_s, double input_v, const KnownInputs& known) noexcept;
   double measure(double theta_rad) noexcept;
   double gaussian() noexcept;
 
   VirtualOmniParams params_;
   double inertia_ = 1.0;
+  bool exact_segments_ = false;  ///< exact_constant_segments and n free of the state
   rt::AlphaEstimator estimator_;
   std::vector<double> delay_line_;  ///< last delay_line_.size() commands, sized at construction
   std::size_t delay_head_ = 0;      ///< index of the newest command
