@@ -358,14 +358,12 @@ void simulate_digital(const JointModelAtPose& model, const Controller& ctl, bool
   p.exact_constant_segments = true;  // the exact segment where n is free of the state
   std::unique_ptr<VirtualOmni> omni;
   std::string last_error;
-  for (int substeps : {4, 16, 64, 256, 1000}) {  // as many as the stiffest effect needs
-    p.substeps = substeps;
-    try {
-      omni = std::make_unique<VirtualOmni>(p);
-      break;
-    } catch (const Error& e) {
-      last_error = e.what();
-    }
+  const int substeps = model_simulation_substeps(p);  // as many as the stiffest effect needs
+  p.substeps = substeps > 0 ? substeps : 1000;  // none stable: the constructor says why
+  try {
+    omni = std::make_unique<VirtualOmni>(p);
+  } catch (const Error& e) {
+    last_error = e.what();
   }
   if (!omni) {
     res.message = "digital loop: " + last_error;

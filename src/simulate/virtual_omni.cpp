@@ -15,6 +15,8 @@ namespace {
 constexpr double kTwoPi = 6.28318530717958647692;
 /// RK4's stability interval on the negative real axis is (−2.785, 0); keep h·λ below this.
 constexpr double kRk4StableHLambda = 2.5;
+/// h·λ for which RK4 is accurate, not only stable (model_simulation_substeps).
+constexpr double kRk4AccurateHLambda = 0.25;
 /// Delay fractions below this (of a tick) count as whole ticks.
 constexpr double kDelayFractionEps = 1e-9;
 
@@ -52,6 +54,23 @@ double stiffest_h_lambda(const VirtualOmniParams& p, double inertia) noexcept {
 bool inertia_ok(double inertia) noexcept { return std::isfinite(inertia) && inertia > 0.0; }
 
 }  // namespace
+
+int model_simulation_substeps(const VirtualOmniParams& p) noexcept {
+  const double i = p.inertia.inertia(deg_to_rad(p.gamma1_deg), deg_to_rad(p.gamma2_deg));
+  if (!inertia_ok(i) || !(p.tick_period_s > 0.0)) return 0;
+  VirtualOmniParams q = p;
+  if (!torque_depends_on_velocity(p.effects)) {
+    for (int n = 1; n <= 1000; n *= 2) {
+      q.substeps = n;
+      if (stiffest_h_lambda(q, i) <= kRk4AccurateHLambda) return n;
+    }
+  }
+  for (int n : {4, 16, 64, 256, 1000}) {
+    q.substeps = n;
+    if (stiffest_h_lambda(q, i) <= kRk4StableHLambda) return n;
+  }
+  return 0;
+}
 
 AlphaModel constant_alpha_model(double c_n1, double beta_tilde_n1) {
   AlphaModel m;

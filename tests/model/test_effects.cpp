@@ -579,5 +579,32 @@ TEST(Effects, TorqueDependsOnStateExactlyWhenEffectTorqueVariesWithTheState) {
   EXPECT_FALSE(torque_depends_on_state(Effects{}));
 }
 
+// torque_depends_on_velocity(): true exactly for the parameters that make n vary with θ̇ at a
+// fixed θ (the friction forms and the discovered term's terms in σ or w).
+TEST(Effects, TorqueDependsOnVelocityExactlyWhenEffectTorqueVariesWithThetaDot) {
+  const double theta_dots[] = {0.0, 0.05, -0.4, 2.0, -0.002};
+  int velocity_parameters = 0, other_parameters = 0;
+  for (EffectKind kind : kAllEffectKinds) {
+    const EffectSpec& spec = effect_spec(kind);
+    if (spec.role != EffectRole::kTorque) continue;
+    for (std::size_t i = 0; i < spec.parameter_count; ++i) {
+      const EffectParameter& p = spec.parameters[i];
+      if (p.modelling_choice) continue;
+      Effects e;
+      e.*p.member = 0.3;
+      bool varies = false;
+      for (double theta : {0.0, 0.7, -1.3}) {
+        const double n0 = effect_torque(e, theta, theta_dots[0]);
+        for (double w : theta_dots) varies = varies || effect_torque(e, theta, w) != n0;
+      }
+      EXPECT_EQ(torque_depends_on_velocity(e), varies) << spec.name << "." << p.name;
+      if (varies) ++velocity_parameters;
+      else if (torque_depends_on_state(e)) ++other_parameters;
+    }
+  }
+  EXPECT_GE(velocity_parameters, 14);
+  EXPECT_EQ(other_parameters, 9);  // gravity g, cogging a; the discovered x and six sin/cos terms
+}
+
 }  // namespace
 }  // namespace alphainv

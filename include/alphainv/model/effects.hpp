@@ -244,6 +244,23 @@ inline bool torque_depends_on_state(const Effects& e) noexcept {
   return false;
 }
 
+/// Whether effect_torque() depends on θ̇ for these effects (the friction forms, and the discovered
+/// term's terms in σ or w): the stiff part of the plant (β̃·Fc/ε at θ̇ = 0), which sets the RK4
+/// step. Terms of θ alone (gravity, cogging, the discovered term's terms in x) are smooth.
+inline bool torque_depends_on_velocity(const Effects& e) noexcept {
+  if (e.coulomb_v > 0.0) return true;
+  if (e.stribeck_coulomb_v > 0.0 || e.stribeck_breakaway_v > 0.0) return true;
+  if (e.asymmetric_coulomb_pos_v > 0.0 || e.asymmetric_coulomb_neg_v > 0.0 ||
+      e.asymmetric_viscous_diff_v_s != 0.0)
+    return true;
+  if (e.position_coulomb_v != 0.0 || e.position_slope_v_per_rad != 0.0) return true;
+  for (std::size_t k = 1; k <= 10; ++k) {  // σ, w, w·σ, w|w|, w³, the three Stribeck terms, x, σ·x
+    if (k == 9) continue;                    // x alone: a term of θ
+    if (e.*kDiscoveredLibrary[k].coefficient != 0.0) return true;
+  }
+  return false;
+}
+
 /// S(Z(v)): the amplifier's deadzone, then its saturation [command unit]. Real-time safe.
 inline double amplifier(const Effects& e, double v) noexcept {
   if (e.deadzone_v > 0.0) {  // Z(v) = sign(v)·max(|v| − d, 0)

@@ -98,6 +98,14 @@ struct VirtualOmniParams {
   void validate() const;
 };
 
+/// The RK4 substeps a model simulation uses for `p` (its `substeps` ignored): when n depends on θ̇
+/// (friction forms: stiff at θ̇ = 0), the first of 4, 16, 64, 256, 1000 that is stable, as the
+/// generator's plant runs; when n depends on θ alone or not at all (smooth), the fewest of
+/// 1, 2, 4, 8, … whose h·λ of the stiffest mode is ≤ 0.25 (RK4's relative error per step below
+/// (h·λ)⁵/120 ≈ 1e-5 of the step's change, at the 1 kHz tick typically 1e-12 rad). 0 when none up
+/// to 1000 is stable. Not real-time.
+int model_simulation_substeps(const VirtualOmniParams& p) noexcept;
+
 /// An AlphaModel whose C and β̃ do not depend on α: C = 1/(c_n1·I), β̃ = 1/(beta_tilde_n1·I).
 /// With c_n1 = C̄0 and beta_tilde_n1 = 1 it is the global linear model (24)-(26).
 AlphaModel constant_alpha_model(double c_n1, double beta_tilde_n1);
