@@ -126,7 +126,8 @@ double Compensator::effect_torque_estimate(double w, double breakaway) const noe
   const double rest = 1.0 - f;
   const double w_c = w + config_.friction_smoothing_rad_s * breakaway * rest;
   const double g = f + std::abs(breakaway) * rest;
-  const double at_rest = moving_effects_.torque(theta_lead, 0.0);
+  // (Friction alone vanishes at rest: tanh(0) = 0 makes the evaluation +0 exactly, skipped.)
+  const double at_rest = moving_effects_.zero_at_rest() ? 0.0 : moving_effects_.torque(theta_lead, 0.0);
   const double moving = moving_effects_.torque(theta_lead, w_c);
   return still + at_rest + (moving - at_rest) * g;
 }

@@ -136,6 +136,28 @@ TEST(TorqueEffects, WithoutEffectsTheTorqueIsZeroAndNothingIsOn) {
   EXPECT_EQ(TorqueEffects(offset).torque(0.1, 0.5), 0.004);
 }
 
+TEST(TorqueEffects, FrictionAloneIsZeroAtRestExactly) {
+  // The friction forms carry tanh(θ̇/ε): at θ̇ = 0 their torque is +0 at every θ, as
+  // zero_at_rest() says; offset, gravity, cogging and the discovered term do not.
+  Effects friction;
+  for (EffectKind k : {EffectKind::kCoulombFriction, EffectKind::kStribeckFriction,
+                       EffectKind::kAsymmetricFriction, EffectKind::kPositionDependentFriction}) {
+    const Effects one = one_effect(k);
+    EXPECT_TRUE(TorqueEffects(one).zero_at_rest()) << effect_name(k);
+    for (const EffectParameter& p : effect_spec(k)) friction.*(p.member) = one.*(p.member);
+  }
+  const TorqueEffects t(friction);
+  EXPECT_TRUE(t.zero_at_rest());
+  for (double th : {-0.7, -0.01, 0.0, 0.2, 1.3}) {
+    EXPECT_EQ(t.torque(th, 0.0), 0.0) << th;
+    EXPECT_FALSE(std::signbit(t.torque(th, 0.0))) << th;
+  }
+  for (EffectKind k : {EffectKind::kOffsetTorque, EffectKind::kGravity, EffectKind::kCogging,
+                       EffectKind::kDiscovered}) {
+    EXPECT_FALSE(TorqueEffects(one_effect(k)).zero_at_rest()) << effect_name(k);
+  }
+}
+
 TEST(TorqueEffects, PlantTorqueOverloadAddsTheKnownDisturbance) {
   Effects e = one_effect(EffectKind::kCoulombFriction);
   e.offset_v = 0.003;

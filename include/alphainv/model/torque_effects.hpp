@@ -32,6 +32,10 @@ class TorqueEffects {
   }
   /// Whether any torque term is on (else torque() is 0 everywhere). Real-time safe.
   bool any() const noexcept { return arguments_.any; }
+  /// Whether torque(θ, 0) = 0 for every θ by construction: each term on carries the factor
+  /// tanh(θ̇/ε) (Coulomb, Stribeck, asymmetric, position-dependent friction; no offset, gravity,
+  /// cogging or discovered term), so an evaluation at rest can be skipped. Real-time safe.
+  bool zero_at_rest() const noexcept { return arguments_.zero_at_rest; }
   /// The effects it was built from.
   const Effects& effects() const noexcept { return effects_; }
 
@@ -49,6 +53,7 @@ class TorqueEffects {
           discovered(discovered_active(e)),
           any(e.offset_v != 0.0 || coulomb || gravity || cogging || stribeck || asymmetric ||
               position || discovered),
+          zero_at_rest(e.offset_v == 0.0 && !gravity && !cogging && !discovered),
           inv_coulomb_smoothing(1.0 / e.coulomb_smoothing_rad_s),
           cogging_wavenumber(detail::DividedArguments::kTwoPi / e.cogging_period_rad),
           inv_stribeck_velocity(1.0 / e.stribeck_velocity_rad_s),
@@ -73,6 +78,7 @@ class TorqueEffects {
 
     bool coulomb, gravity, cogging, stribeck, asymmetric, position, discovered;
     bool any;  ///< any term on, the offset included
+    bool zero_at_rest;  ///< zero_at_rest()
     double inv_coulomb_smoothing;     ///< 1/ε [s/position unit]
     double cogging_wavenumber;        ///< 2π/p [rad/position unit]
     double inv_stribeck_velocity;     ///< 1/v_s [s/position unit]
