@@ -77,15 +77,18 @@ Compensator::Compensator(const CompensatorConfig& config, const Effects& model_e
   inv_deadzone_smoothing_ = 1.0 / config.deadzone_smoothing_v;
   inv_breakaway_ = 1.0 / config.breakaway_smoothing_rad;
   // Sort the torque effects generically, through the catalogue: each active one alone, probed.
+  Effects still, moving_group;
   for (const EffectSpec& spec : kEffectCatalogue) {
     if (spec.role != EffectRole::kTorque || !spec.active(model_effects)) continue;
     Effects alone;
     for (const EffectParameter& q : spec) alone.*(q.member) = model_effects.*(q.member);
     const bool moving = depends_on_velocity(alone);
-    Effects& group = moving ? moving_effects_ : still_effects_;
+    Effects& group = moving ? moving_group : still;
     for (const EffectParameter& q : spec) group.*(q.member) = model_effects.*(q.member);
     any_moving_ = any_moving_ || moving;
   }
+  still_effects_ = TorqueEffects(still);
+  moving_effects_ = TorqueEffects(moving_group);
 }
 
 void Compensator::reset() noexcept {
@@ -117,14 +120,15 @@ double Compensator::effect_torque_estimate(double w, double breakaway) const noe
   const double theta_lead = theta_meas_ + velocity_ * lead_s_;
   // The effects that do not depend on θ̇, plus those that do, faded in through zero velocity and
   // at low speed turned towards the P law's target (breakaway, file comment).
-  const double still = effect_torque(still_effects_, theta_lead, 0.0);
+  const double still = still_effects_.torque(theta_lead, 0.0);
   if (!any_moving_) return still;
   const double f = smooth_sign(std::abs(w) * inv_friction_smoothing_);
   const double rest = 1.0 - f;
   const double w_c = w + config_.friction_smoothing_rad_s * breakaway * rest;
   const double g = f + std::abs(breakaway) * rest;
-  const double at_rest = effect_torque(moving_effects_, theta_lead, 0.0);
-  const double moving = effect_torque(moving_effects_, theta_lead, w_c);
+  // (Friction alone vanishes at rest: tanh(0) = 0 makes the evaluation +0 exactly, skipped.)
+  const double at_rest = moving_effects_.zero_at_rest() ? 0.0 : moving_effects_.torque(theta_lead, 0.0);
+  const double moving = moving_effects_.torque(theta_lead, w_c);
   return still + at_rest + (moving - at_rest) * g;
 }
 

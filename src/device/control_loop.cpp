@@ -159,6 +159,7 @@ ControlLoop::ControlLoop(const ControlLoopConfig& config)
     : config_((config.validate(), config)),
       estimator_(estimator_for(config)),
       compensator_(config.compensation, config.effects, config.period_s),
+      torque_effects_(config.effects),
       kp_(config.kp) {
   estimator_.reset(0.0);
   // C·I and β̃·I against α: the model's breakpoint values 1/C_n1, 1/β̃_n1 (eqs. (40), (42)).
@@ -411,7 +412,7 @@ TickRecord ControlLoop::tick(double t_s, const device::ReadResult& input, bool d
     const double theta_dot = theta_dot_prev * e_prev_ + g_prev * (1.0 - e_prev_);
     // u: the command through the effects plus their torque n(θ, θ̇), held over the tick.
     const double u =
-        v_model + (has_torque_effects_ ? plant_torque(config_.effects, t_s, theta_, theta_dot) : 0.0);
+        v_model + (has_torque_effects_ ? plant_torque(torque_effects_, t_s, theta_, theta_dot) : 0.0);
     theta_pred_next_ = theta_ + theta_dot * a + (beta * u / c) * (T - a);
     u_prev_ = u;
     have_pred_ = true;
@@ -419,7 +420,7 @@ TickRecord ControlLoop::tick(double t_s, const device::ReadResult& input, bool d
     have_pred_ = false;
   }
   if (!have_pred_) {
-    u_prev_ = v_model + (has_torque_effects_ ? plant_torque(config_.effects, t_s, theta_, 0.0) : 0.0);
+    u_prev_ = v_model + (has_torque_effects_ ? plant_torque(torque_effects_, t_s, theta_, 0.0) : 0.0);
   }
   have_prev_tick_ = new_report;
   v_prev_ = v;

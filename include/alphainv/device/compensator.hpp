@@ -43,6 +43,7 @@
 #include <string>
 
 #include "alphainv/model/effects.hpp"
+#include "alphainv/model/torque_effects.hpp"
 
 namespace alphainv::rt {
 
@@ -141,8 +142,9 @@ class Compensator {
   CompensatorConfig config_;
   Effects effects_;
   /// The model's torque effects split by the catalogue (probed once, in the constructor): those
-  /// whose torque does not depend on θ̇ (evaluated once per tick) and those that do.
-  Effects still_effects_, moving_effects_;
+  /// whose torque does not depend on θ̇ (evaluated once per tick) and those that do, with their
+  /// constants precomputed (torque_effects.hpp).
+  TorqueEffects still_effects_, moving_effects_;
   bool any_moving_ = false;
   double period_s_;
   double lead_s_;

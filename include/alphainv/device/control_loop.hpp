@@ -21,6 +21,7 @@
 #include "alphainv/device/transport.hpp"
 #include "alphainv/model/effects.hpp"
 #include "alphainv/model/inertia_model.hpp"
+#include "alphainv/model/torque_effects.hpp"
 #include "alphainv/rt/alpha_estimator.hpp"
 
 namespace alphainv::rt {
@@ -227,6 +228,9 @@ class ControlLoop {
   /// record into a `rep stos`, whose start-up cost was 9 % of the tick (perf), and a copy of a
   /// member it cannot see into into nine SSE moves.
   TickRecord blank_record_{};
+  /// The model's torque effects, their constants precomputed (torque_effects.hpp), for the
+  /// prediction's n(θ, θ̇).
+  TorqueEffects torque_effects_;
   /// The model has a torque effect (else the prediction skips n(θ, θ̇) = 0).
   bool has_torque_effects_ = false;
   /// exp(−C_prev·T) and (1 − e)/C_prev of the previous tick's prediction (reused by this one).

@@ -24,7 +24,8 @@
 /// (below): its name, its parameters with units, checks and search bounds, its modelling choices,
 /// how it enters the equation, the search grid and starts `omni_fit diagnose` uses, and how
 /// `omni_gen` and `omni_fit sweep` set and draw it. A new effect is a member of Effects, its term
-/// in effect_torque() or amplifier() (its physics), one table entry, and its tests
+/// in detail::effect_torque_terms() (with its on-test and arguments in DividedArguments and
+/// TorqueEffects, torque_effects.hpp) or amplifier() (its physics), one table entry, and its tests
 /// (docs/architecture.md).
 
 #include <algorithm>
@@ -199,33 +200,74 @@ inline std::string discovered_equation(const Effects& e) {
          detail::num(e.discovered_position_scale_rad);
 }
 
-/// n(θ, θ̇) [command unit]: the torque-like effects (file comment). Real-time safe.
-inline double effect_torque(const Effects& e, double theta, double theta_dot) noexcept {
-  constexpr double kTwoPi = 6.283185307179586476925;
+namespace detail {
+
+/// The terms of n(θ, θ̇) (file comment): the one formula of effect_torque() and of TorqueEffects
+/// (torque_effects.hpp). `a` says which terms are on and gives the arguments of their tanh and sin:
+/// DividedArguments as written (θ̇/ε, 2π·θ/p, the tests of the parameters each call),
+/// TorqueEffects' precomputed ones (θ̇·(1/ε), θ·(2π/p), flags). Real-time safe.
+template <class Arguments>
+inline double effect_torque_terms(const Effects& e, const Arguments& a, double theta,
+                                  double theta_dot) noexcept {
   double n = e.offset_v;
-  if (e.coulomb_v > 0.0) n -= e.coulomb_v * std::tanh(theta_dot / e.coulomb_smoothing_rad_s);
-  if (e.gravity_v != 0.0) n -= e.gravity_v * std::sin(theta + e.gravity_theta0_rad);
-  if (e.cogging_v != 0.0) {
-    n += e.cogging_v * std::sin(kTwoPi * theta / e.cogging_period_rad + e.cogging_phase_rad);
-  }
-  if (e.stribeck_coulomb_v > 0.0 || e.stribeck_breakaway_v > 0.0) {
-    const double x = theta_dot / e.stribeck_velocity_rad_s;
-    n -= std::tanh(theta_dot / e.stribeck_smoothing_rad_s) *
+  if (a.coulomb_on()) n -= e.coulomb_v * std::tanh(a.coulomb_x(theta_dot));
+  if (a.gravity_on()) n -= e.gravity_v * std::sin(theta + e.gravity_theta0_rad);
+  if (a.cogging_on()) n += e.cogging_v * std::sin(a.cogging_x(theta) + e.cogging_phase_rad);
+  if (a.stribeck_on()) {
+    const double x = a.stribeck_w(theta_dot);
+    n -= std::tanh(a.stribeck_x(theta_dot)) *
          (e.stribeck_coulomb_v + (e.stribeck_breakaway_v - e.stribeck_coulomb_v) * std::exp(-x * x));
   }
-  if (e.asymmetric_coulomb_pos_v > 0.0 || e.asymmetric_coulomb_neg_v > 0.0 ||
-      e.asymmetric_viscous_diff_v_s != 0.0) {
-    const double sg = std::tanh(theta_dot / e.asymmetric_smoothing_rad_s);
+  if (a.asymmetric_on()) {
+    const double sg = std::tanh(a.asymmetric_x(theta_dot));
     n -= sg * (e.asymmetric_coulomb_pos_v * 0.5 * (1.0 + sg) +
                e.asymmetric_coulomb_neg_v * 0.5 * (1.0 - sg)) +
          0.5 * e.asymmetric_viscous_diff_v_s * theta_dot * sg;
   }
-  if (e.position_coulomb_v != 0.0 || e.position_slope_v_per_rad != 0.0) {
+  if (a.position_on()) {
     const double level = std::max(0.0, e.position_coulomb_v + e.position_slope_v_per_rad * theta);
-    n -= std::tanh(theta_dot / e.position_smoothing_rad_s) * level;
+    n -= std::tanh(a.position_x(theta_dot)) * level;
   }
-  if (discovered_active(e)) n += discovered_torque(e, theta, theta_dot);
+  if (a.discovered_on()) n += discovered_torque(e, theta, theta_dot);
   return n;
+}
+
+/// effect_torque_terms' arguments as the file comment writes them: each call tests the parameters
+/// and divides by ε and p.
+struct DividedArguments {
+  static constexpr double kTwoPi = 6.283185307179586476925;
+  const Effects& e;
+  bool coulomb_on() const noexcept { return e.coulomb_v > 0.0; }
+  bool gravity_on() const noexcept { return e.gravity_v != 0.0; }
+  bool cogging_on() const noexcept { return e.cogging_v != 0.0; }
+  bool stribeck_on() const noexcept {
+    return e.stribeck_coulomb_v > 0.0 || e.stribeck_breakaway_v > 0.0;
+  }
+  bool asymmetric_on() const noexcept {
+    return e.asymmetric_coulomb_pos_v > 0.0 || e.asymmetric_coulomb_neg_v > 0.0 ||
+           e.asymmetric_viscous_diff_v_s != 0.0;
+  }
+  bool position_on() const noexcept {
+    return e.position_coulomb_v != 0.0 || e.position_slope_v_per_rad != 0.0;
+  }
+  bool discovered_on() const noexcept { return discovered_active(e); }
+  double coulomb_x(double theta_dot) const noexcept { return theta_dot / e.coulomb_smoothing_rad_s; }
+  double cogging_x(double theta) const noexcept { return kTwoPi * theta / e.cogging_period_rad; }
+  double stribeck_w(double theta_dot) const noexcept { return theta_dot / e.stribeck_velocity_rad_s; }
+  double stribeck_x(double theta_dot) const noexcept { return theta_dot / e.stribeck_smoothing_rad_s; }
+  double asymmetric_x(double theta_dot) const noexcept {
+    return theta_dot / e.asymmetric_smoothing_rad_s;
+  }
+  double position_x(double theta_dot) const noexcept { return theta_dot / e.position_smoothing_rad_s; }
+};
+
+}  // namespace detail
+
+/// n(θ, θ̇) [command unit]: the torque-like effects (file comment). Real-time safe. A loop that
+/// evaluates one Effects every tick uses TorqueEffects (torque_effects.hpp): the same terms with
+/// their constants precomputed.
+inline double effect_torque(const Effects& e, double theta, double theta_dot) noexcept {
+  return detail::effect_torque_terms(e, detail::DividedArguments{e}, theta, theta_dot);
 }
 
 /// Whether effect_torque() depends on θ or θ̇ for these effects: false when only constant terms

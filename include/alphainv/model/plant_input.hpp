@@ -17,6 +17,7 @@
 /// is passed on for effects that depend on time. Header-only, no allocation.
 
 #include "alphainv/model/effects.hpp"
+#include "alphainv/model/torque_effects.hpp"
 
 namespace alphainv {
 
@@ -42,6 +43,15 @@ inline double plant_torque(const Effects& effects, double t_s, double theta, dou
   // (a recorded `disturbance_v` column or diagnose's estimate of it), not from `effects`.
   (void)t_s;
   const double n = effect_torque(effects, theta, theta_dot);
+  return known.disturbance_v != 0.0 ? n + known.disturbance_v : n;
+}
+
+/// plant_torque() with the torque effects precomputed (torque_effects.hpp; the 1 kHz online
+/// model): equal to plant_torque(torque.effects(), …) to rounding. Real-time safe.
+inline double plant_torque(const TorqueEffects& torque, double t_s, double theta, double theta_dot,
+                           const KnownInputs& known = {}) noexcept {
+  (void)t_s;  // as plant_torque(Effects): the torque of time comes in as known.disturbance_v
+  const double n = torque.torque(theta, theta_dot);
   return known.disturbance_v != 0.0 ? n + known.disturbance_v : n;
 }
 
