@@ -14,6 +14,9 @@ The seeds default to ones no test uses (tests use 1-14 and the bench 3). Cases r
 
     /usr/bin/python3 scripts/diagnose_confusion.py --build build/release --seeds 31 --quick \
         --pairs 10 -o out/confusion.md
+
+--effects a,b,... restricts the cases (and the pairs) to those effects; --free-seeds N sets the
+number of effect-free datasets (seeds from the first of --seeds; default one per seed).
 """
 
 import argparse
@@ -50,27 +53,60 @@ def matrix_md(title, rows, cols, counts):
     return "\n".join(out)
 
 
-def singles(args, bins):
+def sweep(args, bins, seeds, effects):
+    """`omni_fit sweep --json` on `seeds` (the hidden `effects`; None: the whole catalogue)."""
     cmd = [bins["omni_fit"], "sweep", "--json", "--threads", str(args.jobs), "--seeds",
-           *[str(s) for s in args.seeds]]
+           *[str(s) for s in seeds]]
+    if effects:
+        cmd += ["--effects", *effects]
     if args.quick:
         cmd.append("--quick")
-    t0 = time.time()
     j = run_json(cmd)
     if j is None:
-        sys.exit("omni_fit sweep failed")
-    return j["cases"], time.time() - t0
+        sys.exit("omni_fit sweep failed: " + " ".join(cmd))
+    return j["cases"]
+
+
+def singles(args, bins):
+    """The single-effect cases (--effects; default the catalogue) on --seeds, and the effect-free
+    ones: one per seed of --seeds, or --free-seeds N seeds from the first one."""
+    t0 = time.time()
+    effects = [e for e in args.effects if e != "none"] if args.effects else None
+    if args.free_seeds is None and not effects:
+        cases = sweep(args, bins, args.seeds, None)  # the catalogue with `none`
+    else:
+        if effects is None:  # the catalogue without `none`: the effect-free cases come after
+            cases = [c for c in sweep(args, bins, args.seeds, None) if c["effect"] != "none"]
+        else:
+            cases = sweep(args, bins, args.seeds, effects)
+        n_free = len(args.seeds) if args.free_seeds is None else args.free_seeds
+        if n_free > 0:
+            cases += sweep(args, bins, [args.seeds[0] + k for k in range(n_free)], ["none"])
+    return cases, time.time() - t0
 
 
 def pair_case(args, bins, a, b, tmp):
     """One dataset with cases a and b's effects (same seed, pose and noise), diagnosed."""
     ga, gb = shlex.split(a["generate"]), shlex.split(b["generate"])
-    eff = lambda g: [g[i + 1] for i, x in enumerate(g) if x == "--effect"]
     folder = os.path.join(tmp, f"{a['effect']}+{b['effect']}_{a['seed']}")
     gen = [bins["omni_gen"]] + [folder if x == "DIR" else x for x in ga[1:]]
-    for e in eff(gb):
-        gen += ["--effect", e]
-    subprocess.run(gen, check=True, capture_output=True)
+    # b's effects: --effect X, --disturbance-pulses X, --unrecorded-disturbance; b with the
+    # bundled Coulomb friction (no --no-coulomb) turns it back on.
+    i = 0
+    while i < len(gb):
+        if gb[i] in ("--effect", "--disturbance-pulses") and i + 1 < len(gb):
+            if gb[i] == "--effect" or "--disturbance-pulses" not in gen:
+                gen += gb[i:i + 2]
+            i += 2
+            continue
+        if gb[i] == "--unrecorded-disturbance" and gb[i] not in gen:
+            gen.append(gb[i])
+        i += 1
+    if "--no-coulomb" not in gb:
+        gen = [x for x in gen if x != "--no-coulomb"]
+    p = subprocess.run(gen, capture_output=True, text=True)
+    if p.returncode != 0:
+        sys.stderr.write(f"omni_gen failed ({p.returncode}): {' '.join(gen)}\n{p.stderr[-2000:]}\n")
     t0 = time.time()
     j = run_json([bins["omni_fit"], "diagnose", folder, "--json", "--threads", "1", "--no-plots"])
     named = [n["effect"] for n in (j or {}).get("named", [])]
@@ -87,6 +123,10 @@ def main():
     ap.add_argument("--quick", action="store_true", help="one magnitude and one noise level per effect")
     ap.add_argument("--pairs", type=int, default=10, help="catalogue pairs to diagnose (0: none)")
     ap.add_argument("--jobs", type=int, default=2, help="cases side by side")
+    ap.add_argument("--effects", type=lambda t: [e for e in t.split(",") if e], default=None,
+                    help="a,b,...: only these hidden effects (catalogue names; pairs among them)")
+    ap.add_argument("--free-seeds", type=int, default=None,
+                    help="effect-free datasets, seeds from the first of --seeds (default: one per seed)")
     ap.add_argument("-o", "--out", help="write the Markdown here too")
     args = ap.parse_args()
     bins = {b: os.path.join(args.build, "apps", b, b) for b in ("omni_fit", "omni_gen")}
@@ -108,6 +148,7 @@ def main():
     right = sum(c["named"] == c["effect"] for c in eff)
     free_ok = sum(c["named"] == "none" and c["verdict"] == "explained" for c in free)
     md = [matrix_md(f"Single effects: {len(cases)} cases, seeds {' '.join(map(str, args.seeds))}, "
+                    f"{len(free)} effect-free; "
                     f"{'one magnitude, noise 5e-5 rad' if args.quick else 'two magnitudes, noise 5e-5 and 2e-4 rad'}; "
                     f"{t_single:.0f} s.", kinds, cols, counts), "",
           f"Right effect named: {right}/{len(eff)} ({100.0 * right / max(len(eff), 1):.0f} %; goal >= 90 %). "

@@ -53,7 +53,7 @@ nlohmann::json result_json(const DiagnoseResult& res) {
   nlohmann::json cands = nlohmann::json::array();
   for (const auto& c : res.rounds.front().candidates) {
     cands.push_back({{"effect", effect_name(c.effect)}, {"score", num(c.score)},
-                     {"error_after", num(c.error_after)}});
+                     {"error_after", num(c.error_after)}, {"inactive", c.inactive}});
   }
   j["candidates"] = cands;
   nlohmann::json names = nlohmann::json::array();

@@ -269,6 +269,7 @@ struct DiagnoseOutcome {
     d["score"] = num(c.score), d["fold_scores"] = py::make_tuple(num(c.fold_scores[0]), num(c.fold_scores[1]));
     d["error_after"] = num(c.error_after), d["training_rms"] = num(c.training_rms);
     d["cross_validated"] = c.cross_validated, d["reidentified"] = c.reidentified;
+    d["inactive"] = c.inactive;
     d["parameters"] = effect_parameters_text(c.effects, c.effect);
     d["effects"] = effects_dict(c.effects);
     return d;

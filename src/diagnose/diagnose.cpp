@@ -1121,6 +1121,58 @@ bool delay_below_one_tick(const CandidateScore& c, const SimulationOptions& simu
          c.effects.delay_s < simulation.loop_period_s;
 }
 
+double largest_abs_command_v(const PreparedRuns& prepared) {
+  double largest = 0.0;
+  for (const DiagnoseRun& r : prepared.runs) {
+    if (r.data == nullptr) continue;
+    for (double v : r.data->v) largest = std::max(largest, std::abs(v));
+  }
+  return largest;
+}
+
+std::string inactive_reason(const CandidateScore& c, double largest_abs_v) {
+  if (!c.ok || !(largest_abs_v > 0.0)) return {};
+  const Effects& e = c.effects;
+  const double floor_v = kInactiveRelativeLevel * largest_abs_v;
+  const std::string below = " V below " + num(kInactiveRelativeLevel, "%g") +
+                            " × the largest |v| " + num(largest_abs_v) + " V: no effect on θ";
+  switch (c.effect) {
+    case EffectKind::kSaturation:
+      if (e.saturation_v >= largest_abs_v) {
+        return "saturation level " + num(e.saturation_v) + " V above the largest |v| " +
+               num(largest_abs_v) + " V: never reached";
+      }
+      return {};
+    case EffectKind::kDeadzone:
+      if (std::abs(e.deadzone_v) < floor_v) return "deadzone half-width " + num(e.deadzone_v) + below;
+      return {};
+    case EffectKind::kGravity:
+      if (std::abs(e.gravity_v) < floor_v) return "gravity amplitude " + num(e.gravity_v) + below;
+      return {};
+    case EffectKind::kOffsetTorque:
+      if (std::abs(e.offset_v) < floor_v) return "offset torque " + num(e.offset_v) + below;
+      return {};
+    case EffectKind::kCoulombFriction:
+      if (std::abs(e.coulomb_v) < floor_v) return "Coulomb level " + num(e.coulomb_v) + below;
+      return {};
+    case EffectKind::kCogging:
+      if (std::abs(e.cogging_v) < floor_v) return "cogging amplitude " + num(e.cogging_v) + below;
+      return {};
+    default:
+      return {};
+  }
+}
+
+bool set_aside_if_inactive(CandidateScore& c, double largest_abs_v) {
+  if (!c.inactive.empty()) return true;
+  std::string why = inactive_reason(c, largest_abs_v);
+  if (why.empty()) return false;
+  c.inactive = why;
+  c.cross_validated = false;
+  c.message = "set aside, inactive on the data: " + why;
+  return true;
+}
+
 namespace {
 
 /// The first `n_breakpoints` of an α-model: its breakpoints.
@@ -1141,7 +1193,9 @@ std::size_t parsimonious(const CandidateFitter& fitter, const Reidentifier& reid
   std::optional<CandidateScore> chosen_refit;  // the chosen one refitted, when it was
   for (std::size_t k = 0; k < candidates.size(); ++k) {
     const CandidateScore& c = candidates[k];
-    if (!c.ok || !c.cross_validated || c.effect == EffectKind::kNone) continue;
+    if (!c.ok || !c.cross_validated || !c.inactive.empty() || c.effect == EffectKind::kNone) {
+      continue;
+    }
     if (effect_parameters(c.effect).size() >= effect_parameters(best.effect).size()) continue;
     std::optional<CandidateScore> refit;
     if (best.alpha && c.alpha && reid.usable() && c.alpha->alpha != best.alpha->alpha) {
@@ -1178,13 +1232,16 @@ std::size_t parsimonious(const CandidateFitter& fitter, const Reidentifier& reid
 Choice choose_winner(const CandidateFitter& fitter, const Reidentifier& reid, DiagnoseRound& rd) {
   const DiagnoseOptions& opt = fitter.options();
   Choice choice;
+  // An effect that does not move θ on these runs is `none` in disguise: set aside first.
+  const double largest_v = largest_abs_command_v(fitter.prepared());
+  for (CandidateScore& c : rd.candidates) set_aside_if_inactive(c, largest_v);
   // The winner: lowest score; named only if significantly better than `none` in both folds.
   std::optional<std::size_t> none, best;
   for (std::size_t k = 0; k < rd.candidates.size(); ++k) {
     const CandidateScore& c = rd.candidates[k];
     if (!c.ok) continue;
     if (c.effect == EffectKind::kNone) none = k;
-    if (!c.cross_validated) continue;  // pruned: cannot be significantly better
+    if (!c.cross_validated || !c.inactive.empty()) continue;  // pruned or set aside
     if (!best || c.score < rd.candidates[*best].score) best = k;
   }
   if (!none) return choice;
@@ -1313,6 +1370,11 @@ DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const Prep
     rd.candidates.push_back(fitted);
   }
   fit_searched(fitter, deferred, rd.candidates, pending);
+  // Inactive candidates (`none` in disguise) take no cross-validation place.
+  const double largest_v = largest_abs_command_v(prepared);
+  for (std::size_t k = 0; k < rd.candidates.size(); ++k) {
+    if (set_aside_if_inactive(rd.candidates[k], largest_v)) pending[k].values.clear();
+  }
   cross_validate_lowest(fitter, rd.candidates, pending);
   try_refinements(fitter, start, reid, refinements, rd.candidates);
   const Choice choice = choose_winner(fitter, reid, rd);

@@ -300,6 +300,23 @@ bool beats(const CandidateScore& c, const CandidateScore& ref, double significan
 /// plant's by as much.
 bool delay_below_one_tick(const CandidateScore& c, const SimulationOptions& simulation);
 
+/// Relative level below which a fitted amplitude (gravity, deadzone half-width, offset, Coulomb,
+/// cogging) is taken as 0: 1e-3 of the largest |v| of the runs, below the noise floor of θ.
+inline constexpr double kInactiveRelativeLevel = 1e-3;
+
+/// The largest |v| over the runs of `prepared` [command unit].
+double largest_abs_command_v(const PreparedRuns& prepared);
+
+/// Why the fitted candidate `c` does not move the simulated θ on runs whose largest |v| is
+/// `largest_abs_v` (it is `none` in disguise): a saturation level at or above largest_abs_v
+/// ("never reached"), or a deadzone half-width, gravity, offset, Coulomb or cogging amplitude
+/// below kInactiveRelativeLevel × largest_abs_v. Empty when it is active (and for `none`).
+std::string inactive_reason(const CandidateScore& c, double largest_abs_v);
+
+/// Sets `c` aside when inactive_reason() is non-empty: c.inactive = the reason, not
+/// cross-validated, the reason in its message. Returns true when set aside.
+bool set_aside_if_inactive(CandidateScore& c, double largest_abs_v);
+
 /// What choose_winner() decided.
 struct Choice {
   bool none_fitted = false;          ///< false: `none` could not be fitted (the round fails)
@@ -307,7 +324,8 @@ struct Choice {
   bool named = false;                 ///< the winner is an effect and passed the guards
 };
 
-/// Choose: the cross-validated candidate with the lowest score; among those within 5 % of it the
+/// Choose: inactive candidates set aside first (set_aside_if_inactive()); the cross-validated
+/// candidate with the lowest score; among those within 5 % of it the
 /// one with fewest parameters, a simpler one first refitted at the winner's breakpoints (it then
 /// replaces its entry in rd.candidates). Named when it is not `none`, not a delay below one tick,
 /// beats `none` in both folds and beats `none` refitted at its breakpoints

@@ -251,6 +251,11 @@ CandidateScore scored(EffectKind kind, double s) {
   c.ok = true;
   c.score = s;
   c.fold_scores = {s, s};
+  // Active amplitudes (0.1 V on runs whose largest |v| is 0.5 V): not set aside as inactive.
+  c.effects.gravity_v = 0.1;
+  c.effects.offset_v = 0.1;
+  c.effects.cogging_v = 0.1;
+  c.effects.coulomb_v = 0.1;
   return c;
 }
 
@@ -301,6 +306,68 @@ TEST(DiagnoseStages, ChooseTakesTheSimplerWithinFivePercentAndRefusesASubTickDel
   // `none` not fitted: the round fails.
   d.candidates[0].ok = false;
   EXPECT_FALSE(choose_winner(fitter, reid, d).none_fitted);
+}
+
+TEST(DiagnoseStages, ChooseSetsAsideAnEffectInactiveOnTheData) {
+  // Runs with v = 0.5·sin(2π·t): the largest |v| is 0.5 V.
+  const RunData a = sine_data(2.0, 0.5);
+  const std::vector<DiagnoseRun> runs = {run_of(a, "a", 2.0)};
+  DiagnoseOptions opt;
+  opt.simulation.loop_period_s = 0.001;
+  const PreparedRuns p = prepare_runs(runs, opt);
+  const RoundModel m = initial_model(runs, p);
+  const CandidateFitter fitter(runs, p, m, opt);
+  const std::vector<DiagnoseRun> no_runs;
+  const Reidentifier reid(no_runs, 0.0);
+  const double largest_v = largest_abs_command_v(p);
+  EXPECT_NEAR(largest_v, 0.5, 1e-12);
+
+  // A saturation at 1.3 V (never reached) has the lowest score (0.49, one parameter); a deadzone
+  // of half-width 1e-5 V (< 1e-3 × 0.5 V) is within 5 % of gravity's 0.50 with one parameter
+  // fewer: either would win by score or parsimony if not set aside. Gravity (0.1 V) wins.
+  DiagnoseRound rd;
+  rd.candidates = {scored(EffectKind::kNone, 1.0), scored(EffectKind::kGravity, 0.50),
+                   scored(EffectKind::kSaturation, 0.49), scored(EffectKind::kDeadzone, 0.51)};
+  rd.candidates[2].effects.saturation_v = 1.3;
+  rd.candidates[3].effects.deadzone_v = 1e-5;
+  ASSERT_LT(effect_parameters(EffectKind::kDeadzone).size(),
+            effect_parameters(EffectKind::kGravity).size());
+  EXPECT_EQ(inactive_reason(rd.candidates[2], largest_v),
+            "saturation level 1.3 V above the largest |v| 0.5 V: never reached");
+  EXPECT_EQ(inactive_reason(rd.candidates[3], largest_v),
+            "deadzone half-width 1e-05 V below 0.001 × the largest |v| 0.5 V: no effect on θ");
+  EXPECT_EQ(inactive_reason(rd.candidates[1], largest_v), "");  // gravity 0.1 V: active
+  EXPECT_EQ(inactive_reason(rd.candidates[0], largest_v), "");  // none: never set aside
+  Choice ch = choose_winner(fitter, reid, rd);
+  ASSERT_TRUE(ch.winner.has_value());
+  EXPECT_EQ(rd.candidates[*ch.winner].effect, EffectKind::kGravity);
+  EXPECT_TRUE(ch.named);
+  EXPECT_EQ(rd.candidates[2].inactive,
+            "saturation level 1.3 V above the largest |v| 0.5 V: never reached");
+  EXPECT_FALSE(rd.candidates[2].cross_validated);
+  EXPECT_FALSE(rd.candidates[3].inactive.empty());
+  EXPECT_FALSE(rd.candidates[3].cross_validated);
+  EXPECT_TRUE(rd.candidates[1].inactive.empty());
+
+  // A saturation at 0.4 V (below 0.5 V) is reached: active, and it wins with one parameter.
+  DiagnoseRound reached;
+  reached.candidates = {scored(EffectKind::kNone, 1.0), scored(EffectKind::kGravity, 0.50),
+                        scored(EffectKind::kSaturation, 0.49)};
+  reached.candidates[2].effects.saturation_v = 0.4;
+  ch = choose_winner(fitter, reid, reached);
+  EXPECT_EQ(reached.candidates[*ch.winner].effect, EffectKind::kSaturation);
+  EXPECT_TRUE(reached.candidates[2].inactive.empty());
+
+  // Only a gravity of ~0 amplitude beats `none`: set aside, `none` wins and nothing is named.
+  DiagnoseRound only;
+  only.candidates = {scored(EffectKind::kNone, 1.0), scored(EffectKind::kGravity, 0.5)};
+  only.candidates[1].effects.gravity_v = 2e-4;  // < 5e-4 V
+  ch = choose_winner(fitter, reid, only);
+  ASSERT_TRUE(ch.winner.has_value());
+  EXPECT_EQ(only.candidates[*ch.winner].effect, EffectKind::kNone);
+  EXPECT_FALSE(ch.named);
+  EXPECT_EQ(only.candidates[1].inactive,
+            "gravity amplitude 0.0002 V below 0.001 × the largest |v| 0.5 V: no effect on θ");
 }
 
 /// The sweep's one-pose dataset (seed 6) with omni_gen's ±0.05 V pulses (0.1 s every 1 s), its

@@ -133,6 +133,10 @@ struct CandidateScore {
   /// The α-model re-identified with the effects (replaces the runs' α-model; the scales apply to
   /// it); nullopt: the runs' own.
   std::optional<AlphaModel> alpha;
+  /// Non-empty: set aside as inactive on the data, with the reason (its fitted effect does not
+  /// move the simulated θ: `none` in disguise, e.g. a saturation level above the largest |v|).
+  /// An inactive candidate is not cross-validated, cannot win and is not preferred by parsimony.
+  std::string inactive;
 };
 
 /// Where the residual concentrates.
