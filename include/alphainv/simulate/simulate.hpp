@@ -5,7 +5,10 @@
 /// right-hand side, with the effects of effects.hpp added to eq. (11). Or, with
 /// SimulationOptions::loop_period_s > 0, as the digital loop a real rig runs: the PID law sampled
 /// every tick with its command held over the tick (zero-order hold) and α from the streaming
-/// estimator on the applied command (the plant of virtual_omni.hpp, without measurement effects).
+/// estimator on the applied command (the plant of virtual_omni.hpp, without measurement effects;
+/// each tick stepped exactly where no effect depends on the state, by one RK4 step where the
+/// torque is a smooth function of θ, by the generator's 4 or more with friction:
+/// model_simulation_substeps()).
 /// Not real-time (allocates the result); never throws on bad input: the result says.
 
 #include <cstddef>
