@@ -1136,31 +1136,29 @@ std::string inactive_reason(const CandidateScore& c, double largest_abs_v) {
   const double floor_v = kInactiveRelativeLevel * largest_abs_v;
   const std::string below = " V below " + num(kInactiveRelativeLevel, "%g") +
                             " × the largest |v| " + num(largest_abs_v) + " V: no effect on θ";
-  switch (c.effect) {
-    case EffectKind::kSaturation:
-      if (e.saturation_v >= largest_abs_v) {
-        return "saturation level " + num(e.saturation_v) + " V above the largest |v| " +
-               num(largest_abs_v) + " V: never reached";
-      }
-      return {};
-    case EffectKind::kDeadzone:
-      if (std::abs(e.deadzone_v) < floor_v) return "deadzone half-width " + num(e.deadzone_v) + below;
-      return {};
-    case EffectKind::kGravity:
-      if (std::abs(e.gravity_v) < floor_v) return "gravity amplitude " + num(e.gravity_v) + below;
-      return {};
-    case EffectKind::kOffsetTorque:
-      if (std::abs(e.offset_v) < floor_v) return "offset torque " + num(e.offset_v) + below;
-      return {};
-    case EffectKind::kCoulombFriction:
-      if (std::abs(e.coulomb_v) < floor_v) return "Coulomb level " + num(e.coulomb_v) + below;
-      return {};
-    case EffectKind::kCogging:
-      if (std::abs(e.cogging_v) < floor_v) return "cogging amplitude " + num(e.cogging_v) + below;
-      return {};
-    default:
-      return {};
+  if (c.effect == EffectKind::kSaturation) {
+    if (e.saturation_v < largest_abs_v) return {};
+    return "saturation level " + num(e.saturation_v) + " V above the largest |v| " +
+           num(largest_abs_v) + " V: never reached";
   }
+  // The effects whose first parameter is a level in command units: too small to move θ.
+  struct Level {
+    EffectKind kind;
+    double Effects::*member;
+    const char* label;
+  };
+  static constexpr Level kLevels[] = {
+      {EffectKind::kDeadzone, &Effects::deadzone_v, "deadzone half-width"},
+      {EffectKind::kGravity, &Effects::gravity_v, "gravity amplitude"},
+      {EffectKind::kOffsetTorque, &Effects::offset_v, "offset torque"},
+      {EffectKind::kCoulombFriction, &Effects::coulomb_v, "Coulomb level"},
+      {EffectKind::kCogging, &Effects::cogging_v, "cogging amplitude"},
+  };
+  for (const Level& l : kLevels) {
+    if (l.kind == c.effect && std::abs(e.*l.member) < floor_v)
+      return std::string(l.label) + " " + num(e.*l.member) + below;
+  }
+  return {};
 }
 
 bool set_aside_if_inactive(CandidateScore& c, double largest_abs_v) {
