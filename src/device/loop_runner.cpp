@@ -383,6 +383,11 @@ void LoopRunner::finish_run(std::uint32_t run_id, const RecordItem& end_item) {
   end.stopped = end_item.end == 2;
   end.dropped_rows = end_item.dropped;
   const RunResult result = rec->finish(end, loop_.config(), kp_.load());
+  // Told before the run leaves partial_: run() returns once partial_ is empty, and a caller that
+  // acts on its return (the daemon closes its clients) must already hold this result. Called the
+  // other way round, a fault's run_done was lost when the daemon closed first (a flaky
+  // OmniCtlDaemon.AFaultStopsTheDaemonAndTellsTheClient under load).
+  if (options_.on_run_done) options_.on_run_done(result);
   {
     std::lock_guard<std::mutex> lock(mutex_);
     results_[run_id] = result;
@@ -392,7 +397,6 @@ void LoopRunner::finish_run(std::uint32_t run_id, const RecordItem& end_item) {
     partial_.erase(run_id);
   }
   done_cv_.notify_all();
-  if (options_.on_run_done) options_.on_run_done(result);
 }
 
 }  // namespace alphainv::device

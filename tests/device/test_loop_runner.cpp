@@ -2,6 +2,8 @@
 // the timing statistics, and stays complete when a fault or a stop request ends it.
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <condition_variable>
 #include <filesystem>
@@ -193,6 +195,25 @@ TEST(LoopRunner, KeepsABoundedNumberOfResultsNobodyWaitsFor) {
   EXPECT_EQ(runner.kept_results(), LoopRunner::kKeptResults - 1);
   stop.store(true);
   loop.join();
+}
+
+TEST(LoopRunner, EveryRunIsToldBeforeRunReturns) {
+  // The daemon closes its clients once run() returns; a run's result told after that is lost
+  // (a fault's run_done went missing under load). A slow on_run_done makes the order visible:
+  // run() must not return before it has finished.
+  SimTransport t(VirtualOmniParams{}, ReportScaling{});
+  std::atomic<int> told{0};
+  LoopRunnerOptions o;
+  o.exit_when_idle = true;
+  o.on_run_done = [&](const RunResult&) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    told.fetch_add(1);
+  };
+  LoopRunner runner(t, rt::ControlLoopConfig{}, o);
+  ASSERT_TRUE(runner.post(sine_run(0.05)));
+  std::atomic<bool> stop{false};
+  (void)runner.run(stop);
+  EXPECT_EQ(told.load(), 1);
 }
 
 TEST(LoopOutcome, ReportsHowTheLoopEnded) {

@@ -65,7 +65,8 @@ RealtimeSetup request_realtime(int priority, bool lock_memory);
 struct LoopRunnerOptions {
   std::size_t ring_capacity = 1 << 15;  ///< ticks the record ring holds (32 s at 1 kHz)
   bool exit_when_idle = false;          ///< run() returns when a run ends (single-run mode)
-  /// Called on the writer thread when a run's recording is finished (may be empty).
+  /// Called on the writer thread when a run's recording is finished (may be empty), before
+  /// run() can return: whoever acts on run()'s return already has every run's result.
   std::function<void(const RunResult&)> on_run_done;
 };
 
