@@ -11,6 +11,7 @@
 # is real time at 1 kHz, plus diagnose's run time). Environment: BUILD (default build/release),
 # HIDDEN (the plant's effects, omni_ctl --sim-effect specs separated by spaces), SIM_NOISE and
 # SIM_SEED (the encoder's noise [rad] and its seed), DIAGNOSE_OPTS (omni_fit diagnose's options),
+# COMP_DAMPING (free motion: --compensate-damping, default 0.5),
 # MODEL (the model deployed, default the diagnosed one), PHASES (default "all", else some of
 # "record fit diagnose eval robust hold free figures"; "identify" = record fit diagnose).
 set -euo pipefail
@@ -117,12 +118,19 @@ if phase hold; then
   fi
 fi
 PUSH_SPEED=0.2 PUSH_K=2 PUSH_START=0.5
+COMP_DAMPING=${COMP_DAMPING:-0.5}  # free motion: the fraction of the model's damping cancelled too
 if phase free; then
-  echo "6c. free motion: kp 0, a hand moving the joint at $PUSH_SPEED rad/s"
-  push=(--sim-push "hand:$PUSH_SPEED,stiffness=$PUSH_K,damping=0.05,start=$PUSH_START")
-  ctl --hold --kp 0 --duration 4s --model "$MODEL" "${push[@]}" --record "$OUT/free/none"
-  ctl --hold --kp 0 --duration 4s --model "$MODEL" --compensate effects "${push[@]}" \
-    --record "$OUT/free/effects"
+  echo "6c. free motion: kp 0, a hand moving the joint at +-$PUSH_SPEED rad/s"
+  for dir in pos neg; do
+    speed=$PUSH_SPEED
+    [[ $dir == neg ]] && speed=-$PUSH_SPEED
+    push=(--sim-push "hand:$speed,stiffness=$PUSH_K,damping=0.05,start=$PUSH_START")
+    ctl --hold --kp 0 --duration 4s --model "$MODEL" "${push[@]}" --record "$OUT/free/none_$dir"
+    ctl --hold --kp 0 --duration 4s --model "$MODEL" --compensate effects "${push[@]}" \
+      --record "$OUT/free/effects_$dir"
+    ctl --hold --kp 0 --duration 4s --model "$MODEL" --compensate effects \
+      --compensate-damping "$COMP_DAMPING" "${push[@]}" --record "$OUT/free/damping_$dir"
+  done
   ctl --hold --kp 0 --duration 4s --model "$MODEL" --sim-push "ramp:0.02,start=$PUSH_START" \
     --record "$OUT/free/ramp_none"
   ctl --hold --kp 0 --duration 4s --model "$MODEL" --compensate effects \
@@ -140,8 +148,8 @@ if phase figures; then
     fi
     echo; echo "## Hold 30 s"
     $PY "$HELP" hold "$OUT"/hold/*
-    echo; echo "## Free motion (kp 0): mean hand push over the last 2 s"
-    $PY "$HELP" push "$PUSH_SPEED" "$PUSH_K" "$PUSH_START" 2.0 "$OUT/free/none" "$OUT/free/effects"
+    echo; echo "## Free motion (kp 0): mean hand push over the last 2 s, both directions"
+    $PY "$HELP" transparency "$PUSH_SPEED" "$PUSH_K" "$PUSH_START" 2.0 "$OUT/free" "none effects damping"
   } | tee "$OUT/figures.md"
   mkdir -p "$OUT/plots"
   for name in sine_1.5Hz sine_4Hz sine_7Hz step; do

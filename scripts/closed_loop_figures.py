@@ -105,19 +105,43 @@ def hold(folder, counts_per_rad=1.0 / 1.5e-4, settle_s=1.0):
 
 def push(folder, speed, stiffness, start_s, window_s):
     """Free motion with a hand profile: mean push K·(θ_h − θ) while the hand moves at `speed`,
-    over the last `window_s` of the run, and the joint's mean speed there."""
+    over the last `window_s` of the run, and the joint's mean speed there.
+
+    The hand moves in the virtual device's time, ticks stepped × T (device/sim_push.hpp), not in
+    the recording's t: a late tick that skips deadlines advances t by several periods and the
+    device by one, so a hand rebuilt from t runs ahead of the real one and reads a larger push
+    (a loaded machine once read 0.0215 V for 0.0119 V). One recorded row = one device step."""
     cols, _ = read_run(folder)
     t, th = cols["t"], cols["theta"]
+    period_s = float(np.median(np.diff(t)))
+    t_dev = t[0] + period_s * np.arange(len(t))
+    skipped = int(round((t[-1] - t_dev[-1]) / period_s))
     # the hand takes hold where the joint is at start_s (device time ≈ run time + 1 tick)
-    k0 = int(np.searchsorted(t, start_s - 1e-3))
-    hand = th[k0] + speed * (t - t[k0])
-    keep = (t >= t[-1] - window_s) & (t >= t[k0])
+    k0 = int(np.searchsorted(t_dev, start_s - 1e-3))
+    hand = th[k0] + speed * (t_dev - t_dev[k0])
+    keep = (t_dev >= t_dev[-1] - window_s) & (t_dev >= t_dev[k0])
     d = stiffness * (hand[keep] - th[keep])
-    tt = t[keep]
-    mean_speed = float(np.polyfit(tt, th[keep], 1)[0])
-    print("%s: push at %.2f rad/s: mean %.4f V (min %.4f, max %.4f); joint speed %.3f rad/s" % (
-        folder, speed, float(np.mean(d)), float(d.min()), float(d.max()), mean_speed))
+    mean_speed = float(np.polyfit(t_dev[keep], th[keep], 1)[0])
+    print("%s: push at %+.2f rad/s: mean %+.4f V (min %+.4f, max %+.4f); joint speed %+.3f rad/s"
+          "; %d ticks skipped" % (folder, speed, float(np.mean(d)), float(d.min()), float(d.max()),
+                                  mean_speed, skipped))
     return float(np.mean(d))
+
+
+def transparency(speed, stiffness, start_s, window_s, root, modes):
+    """The push needed at +speed and −speed per mode (ROOT/MODE_pos, ROOT/MODE_neg), their mean
+    magnitude — an offset or gravity helps one direction as much as it hinders the other, so one
+    direction alone measures the friction plus or minus the offset — and the cut against modes[0]."""
+    mean_abs = {}
+    for mode in modes:
+        plus = push(os.path.join(root, mode + "_pos"), speed, stiffness, start_s, window_s)
+        minus = push(os.path.join(root, mode + "_neg"), -speed, stiffness, start_s, window_s)
+        mean_abs[mode] = 0.5 * (abs(plus) + abs(minus))
+    print("\n| mode | mean |push| at ±%.2f rad/s [V] | cut |" % speed)
+    print("|---|---|---|")
+    for mode in modes:
+        cut = 100.0 * (1.0 - mean_abs[mode] / mean_abs[modes[0]])
+        print("| %s | %.4f | %.0f %% |" % (mode, mean_abs[mode], cut))
 
 
 def plot(eval_root, modes, name, out_png, last_s=0.6):
@@ -160,6 +184,10 @@ if __name__ == "__main__":
         # push SPEED STIFFNESS START WINDOW FOLDER...
         for folder in sys.argv[6:]:
             push(folder, float(sys.argv[2]), float(sys.argv[3]), float(sys.argv[4]), float(sys.argv[5]))
+    elif cmd == "transparency":
+        # transparency SPEED STIFFNESS START WINDOW ROOT "none effects ..."
+        transparency(float(sys.argv[2]), float(sys.argv[3]), float(sys.argv[4]),
+                     float(sys.argv[5]), sys.argv[6], sys.argv[7].split())
     elif cmd == "plot":
         plot(sys.argv[2], sys.argv[3].split(), sys.argv[4], sys.argv[5])
     else:

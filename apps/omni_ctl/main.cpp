@@ -60,7 +60,8 @@ std::string command_line(int argc, char** argv) {
 constexpr const char* kLoopOptions[] = {"--max-command", "--max-slew",    "--theta-limit",
                                         "--stall-periods", "--max-missed", "--sim-fault",
                                         "--device",      "--model",       "--rt-priority",
-                                        "--no-mlock",    "--compensate",  "--sim-effect",
+                                        "--no-mlock",    "--compensate",  "--compensate-damping",
+                                        "--sim-effect",
                                         "--sim-push",    "--sim-noise",   "--sim-seed"};
 
 ExitCode run_local(const Options& opt, const std::atomic<bool>& stop) {
@@ -192,6 +193,10 @@ int main(int argc, char** argv) {
                  "invert its deadzone), feedforward (invert the alpha-model along the reference), "
                  "all")
       ->check(CLI::IsMember({"none", "effects", "feedforward", "all"}));
+  app.add_option("--compensate-damping", opt.compensate_damping,
+                 "with --compensate effects: the fraction (0 <= k < 1) of the alpha-model's damping "
+                 "C*theta_dot cancelled too, for free motion (transparency); 0: none")
+      ->check(CLI::Range(0.0, 0.99));
   app.add_option("--sim-effect", opt.sim_effects,
                  "an effect of --device sim's plant, NAME:PARAM=VALUE[,PARAM=VALUE] (repeatable), "
                  "e.g. coulomb_friction:coulomb_v=0.02; names: " + effect_names_text());

@@ -46,6 +46,7 @@ struct Options {
   std::vector<std::string> loop_options_given;
   // Model-based compensation and the virtual plant's physics (docs/compensation.md).
   std::string compensate;                // --compensate effects|feedforward|all ("": none)
+  double compensate_damping = 0.0;       // --compensate-damping: kappa, the model's damping cancelled
   std::vector<std::string> sim_effects;  // --sim-effect NAME:PARAM=VALUE[,...] (repeatable)
   std::string sim_push;                  // --sim-push ramp:RATE[,start=S][,max=V] | constant:V
   double sim_noise_rad = 0.0;            // --sim-noise: measurement noise sigma [rad]

@@ -61,6 +61,14 @@ rt::ControlLoopConfig make_loop_config(const Options& opt, std::string& model_so
       model_note += "--compensate " + opt.compensate + ": the model has no effects to cancel. ";
     }
   }
+  if (opt.compensate_damping > 0.0) {
+    if (cfg.compensation.mode != rt::CompensationMode::kEffects) {
+      throw Error("--compensate-damping needs --compensate effects (the feedforward modes hold "
+                  "the damping along the reference already)",
+                  {}, 0, "--compensate-damping");
+    }
+    cfg.compensation.damping_fraction = opt.compensate_damping;
+  }
   cfg.validate();
   return cfg;
 }

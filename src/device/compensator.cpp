@@ -60,6 +60,10 @@ void CompensatorConfig::validate(double period_s) const {
   if (!(std::isfinite(eta) && eta > 0.0 && eta <= 1.0)) {
     detail::bad("compensation.transition_command_fraction", "0 < fraction <= 1", eta);
   }
+  const double kappa = damping_fraction;
+  if (!(std::isfinite(kappa) && kappa >= 0.0 && kappa < 1.0)) {
+    detail::bad("compensation.damping_fraction", "0 <= fraction < 1", kappa);
+  }
 }
 
 Compensator::Compensator(const CompensatorConfig& config, const Effects& model_effects,
@@ -143,14 +147,16 @@ double Compensator::invert_deadzone(double desired_v) const noexcept {
 }
 
 double Compensator::command(double p_command_v, double feedforward_v, double reference_rate_rad_s,
-                            double error_rad) const noexcept {
+                            double error_rad, double damping_per_beta) const noexcept {
   const bool ff = feeds_forward(config_.mode);
-  const double v = p_command_v + (ff ? feedforward_v : 0.0);
+  double v = p_command_v + (ff ? feedforward_v : 0.0);
   if (!cancels_effects(config_.mode)) return v;
   // With the feedforward the reference's velocity (0 at rest): friction compensated by the
   // measured velocity is a feedback that, over-estimated, injects energy (negative friction) and
   // sustains a limit cycle at rest; by ṙ and the position error it is not a feedback on θ̇.
   const double w = ff ? reference_rate_rad_s : velocity_;
+  // A fraction of the α-model's damping, in the mode `effects` (file comment).
+  if (!ff && have_state_) v += config_.damping_fraction * damping_per_beta * velocity_;
   return invert_deadzone(
       v - effect_torque_estimate(w, breakaway_direction(error_rad, p_command_v)));
 }

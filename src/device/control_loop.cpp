@@ -367,7 +367,10 @@ TickRecord ControlLoop::tick(double t_s, const device::ReadResult& input, bool d
       }
       v_ff = feedforward_command(r_dot, r_ddot, c_last_, beta_last_);
     }
-    v = compensator_.command(v_p, v_ff, r_dot, r - theta_);
+    // C/β̃ of the previous tick (the damping compensation; 0 before the first tick's C, β̃).
+    const double damping_per_beta =
+        config_.compensation.damping_fraction > 0.0 && beta_last_ > 0.0 ? c_last_ / beta_last_ : 0.0;
+    v = compensator_.command(v_p, v_ff, r_dot, r - theta_, damping_per_beta);
   }
   rec.p_command_v = std::isfinite(v_p) ? v_p : 0.0;
   rec.comp_command_v = std::isfinite(v) ? v - rec.p_command_v : 0.0;

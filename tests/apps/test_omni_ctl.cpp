@@ -248,6 +248,12 @@ TEST(OmniCtl, BadInputIsRejectedWithTheFieldNamed) {
       {{"--sine", "3Hz", "--device", "sim", "--model", (dir / "broken.json").string()},
        2,
        "broken.json"},
+      {{"--hold", "--device", "sim", "--compensate", "all", "--compensate-damping", "0.5"},
+       2,
+       "'--compensate-damping': --compensate-damping needs --compensate effects"},
+      {{"--hold", "--device", "sim", "--compensate", "effects", "--compensate-damping", "1"},
+       1,
+       "--compensate-damping"},
   };
   for (const Case& c : cases) {
     std::vector<std::string> args = {bin, "--local"};

@@ -431,3 +431,69 @@ TEST(CompensatedLoop, StableAndBetterThanNoneWithTheEffectsMisjudgedBy30Percent)
     EXPECT_LE(*hi - *lo, 3.0 * 1.5e-4 + 1e-12);
   }
 }
+
+TEST(CompensatorConfig, DampingFractionIsBelowOne) {
+  for (double bad : {-0.1, 1.0, std::nan("")}) {
+    CompensatorConfig c;
+    c.damping_fraction = bad;
+    try {
+      c.validate(kT);
+      FAIL() << bad;
+    } catch (const Error& e) {
+      EXPECT_EQ(e.field(), "compensation.damping_fraction");
+    }
+  }
+}
+
+TEST(Compensator, DampingCompensationIsAFractionOfTheModelsDampingInTheModeEffectsOnly) {
+  // v = v_p + κ·(C/β̃)·θ̇_f in `effects`; the feedforward modes ignore it (v_ff holds C·ṙ).
+  for (CompensationMode m : {CompensationMode::kNone, CompensationMode::kEffects,
+                             CompensationMode::kFeedforward, CompensationMode::kAll}) {
+    CompensatorConfig c;
+    c.mode = m;
+    c.damping_fraction = 0.4;
+    Compensator comp(c, Effects{}, kT);
+    for (int k = 0; k < 400; ++k) comp.observe(0.3 * k * kT, true);  // a ramp: θ̇_f → 0.3 rad/s
+    ASSERT_NEAR(comp.velocity_rad_s(), 0.3, 1e-9);
+    const double expected = 0.1 + (m == CompensationMode::kEffects ? 0.4 * 0.25 * comp.velocity_rad_s() : 0.0);
+    EXPECT_NEAR(comp.command(0.1, 0.0, 0.0, 0.0, 0.25), expected, 1e-15) << to_string(m);
+  }
+}
+
+TEST(CompensatedLoop, DampingCompensationLeavesTheFreeJointOneMinusKappaOfItsDamping) {
+  // kp = 0 and a constant push d on a constant-α plant: θ̈ + C·θ̇ = β̃·(d + κ·(C/β̃)·θ̇_f), so the
+  // steady speed is β̃·d/(C·(1 − κ)): the push a hand needs for a given speed falls to 1 − κ.
+  // constant_alpha_model(c, b): C/β̃ = b/c = 2 V·s/rad.
+  ControlLoopConfig cfg;
+  cfg.scaling = fine_scaling();
+  cfg.kp = 0.0;
+  cfg.model = constant_alpha_model(20.0, 40.0);
+  VirtualOmniParams plant;
+  plant.alpha_model = cfg.model;
+  auto steady_speed = [&](double kappa) {
+    ControlLoopConfig c = cfg;
+    c.compensation.mode = CompensationMode::kEffects;
+    c.compensation.damping_fraction = kappa;
+    ControlLoop loop(c);
+    SimTransport t(plant, c.scaling);
+    SimPush push;
+    push.kind = SimPush::Kind::kConstant;
+    push.level_v = 0.02;
+    t.device().set_push(push);
+    std::vector<double> theta;
+    for (int k = 0; k < 3000; ++k) {
+      const ReadResult in = t.read_latest();
+      OutputReport out;
+      const TickRecord rec = loop.tick(k * kT, in, false, out);
+      EXPECT_EQ(rec.fault, Fault::kNone);
+      EXPECT_EQ(t.write(out), IoStatus::kOk);
+      if (k == 0) loop.set_reference(Waveform{WaveKind::kHold, 0.0, 0.0, 0.0}, kT, true);
+      theta.push_back(rec.theta_rad);
+    }
+    return (theta[2999] - theta[1999]) / (1000 * kT);
+  };
+  const double free = steady_speed(0.0), half = steady_speed(0.5), most = steady_speed(0.75);
+  EXPECT_NEAR(free, 0.02 / 2.0, 1e-4);
+  EXPECT_NEAR(half / free, 2.0, 0.02);
+  EXPECT_NEAR(most / free, 4.0, 0.04);
+}

@@ -27,6 +27,12 @@
 ///   filtered velocity fades the compensation out at each reversal, and the joint sticks there
 ///   until the P law alone overcomes the friction). The deadzone is inverted smoothly,
 ///   Z⁻¹(x) = x + d·s(x/δ) (δ = deadzone_smoothing_v), exact to d·δ²/(2x²) for |x| ≫ δ.
+/// - damping (opt-in, in the mode `effects`): a fraction κ of the α-model's own damping cancelled
+///   for free motion (transparency: kp = 0, a hand moving the joint), v += κ·(C/β̃)·θ̇_f, so the
+///   hand feels C·(1 − κ) of it. Not in the modes that feed forward (their v_ff already holds
+///   C·ṙ along the reference, and at rest ṙ = 0). A feedback on θ̇: the loop keeps the net damping
+///   (1 − κ·m)·C > 0 when the model's C is m times the plant's, so κ < 1 and, for a model 30 %
+///   high, κ < 0.77.
 /// - feedforward: the α-model inverted along the reference, v_ff from
 ///       r̈ + C(α̂, I)·ṙ = β̃(α̂, I)·v_ff          (eq. (37) with θ = r),
 ///   with α̂ the streaming α of the command history (eq. (33)) and I(γ1, γ2) at the measured pose
@@ -85,6 +91,9 @@ struct CompensatorConfig {
   /// followed along the fastest cycloid whose feedforward needs at most η·max_command_v of the
   /// clamp (control_loop.hpp); 0 < η ≤ 1.
   double transition_command_fraction = 0.6;
+  /// κ: in the mode `effects`, the fraction of the α-model's damping C·θ̇ cancelled (file comment);
+  /// 0 (the default) cancels none; 0 ≤ κ < 1.
+  double damping_fraction = 0.0;
   /// Evaluate position-dependent effects at θ + θ̇_f·(T/2 + τ) rather than at θ.
   bool lead = true;
 
@@ -128,9 +137,11 @@ class Compensator {
   /// `feedforward_v` (used only in the modes that feed forward): in the modes that cancel effects
   /// Z⁻¹(v_p + v_ff − n̂), otherwise v_p + v_ff. `reference_rate_rad_s`: ṙ at the tick's middle
   /// plus τ when the reference moves (n̂'s velocity in the mode `all`, file comment), else 0;
-  /// `error_rad` the P law's position error (the breakaway direction). Real-time safe.
+  /// `error_rad` the P law's position error (the breakaway direction); `damping_per_beta` C/β̃
+  /// [command unit·s/rad] of the α-model at this tick (the damping compensation, in the mode
+  /// `effects` only: + κ·(C/β̃)·θ̇_f). Real-time safe.
   double command(double p_command_v, double feedforward_v, double reference_rate_rad_s = 0.0,
-                 double error_rad = 0.0) const noexcept;
+                 double error_rad = 0.0, double damping_per_beta = 0.0) const noexcept;
 
   /// Filtered velocity θ̇_f [rad/s]. Real-time safe.
   double velocity_rad_s() const noexcept { return velocity_; }
