@@ -227,6 +227,26 @@ TEST(FitStages, ModelSimulationIsTheDigitalLoopWhenSampledUniformly) {
   choose_model_simulation(data, FitPipelineOptions{}, jitter);
   EXPECT_EQ(jitter.simulation.loop_period_s, 0.0);
   EXPECT_TRUE(has_note(jitter, "runs not sampled uniformly at the loop period"));
+  // A loop that skipped a few late ticks (omni_ctl's t is the deadline): still the digital loop.
+  data = bundled().runs;
+  for (std::size_t k : {std::size_t{100}, std::size_t{2000}}) {  // rows dropped: gaps of 2T, 3T
+    data[3].t.erase(data[3].t.begin() + static_cast<std::ptrdiff_t>(k),
+                    data[3].t.begin() + static_cast<std::ptrdiff_t>(k + (k == 100 ? 1 : 2)));
+  }
+  DatasetFit skipped;
+  skipped.loop_period_s = 1e-3;
+  choose_model_simulation(data, FitPipelineOptions{}, skipped);
+  EXPECT_EQ(skipped.simulation.loop_period_s, 1e-3);
+  EXPECT_TRUE(has_note(skipped, "2 of "));
+  EXPECT_TRUE(has_note(skipped, "sample intervals span skipped ticks"));
+  // Gaps in more than 1 % of the intervals: not a loop that skipped a few ticks.
+  std::vector<RunData> sparse(1, bundled().runs[3]);
+  std::vector<double>& t = sparse[0].t;
+  for (std::ptrdiff_t k = static_cast<std::ptrdiff_t>(t.size()) - 2; k > 1; k -= 40) t.erase(t.begin() + k);
+  DatasetFit many;
+  many.loop_period_s = 1e-3;
+  choose_model_simulation(sparse, FitPipelineOptions{}, many);
+  EXPECT_EQ(many.simulation.loop_period_s, 0.0);
 }
 
 TEST(FitStages, TimeDomainFitOfPosesWithoutSineRuns) {
