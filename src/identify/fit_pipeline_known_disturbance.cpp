@@ -106,12 +106,22 @@ std::string number_text(double x) {
 
 void remove_known_disturbance_response(const Dataset& dataset, const std::vector<RunData>& data,
                                        const FitPipelineOptions& options, DatasetFit& fit) {
-  if (options.disturbance_passes <= 0) return;
   std::vector<SineRunPoint> disturbed;  // the sine runs with a nonzero disturbance_v
   for (const SineRunPoint& sp : fit.sine_points) {
     if (has_nonzero_disturbance(data[sp.run])) disturbed.push_back(sp);
   }
-  if (disturbed.empty() || !fit.usable()) return;
+  if (disturbed.empty()) return;
+  fit.disturbance_correction.runs_with_disturbance = disturbed.size();
+  if (options.disturbance_passes <= 0) {
+    fit.notes.push_back(
+        "known disturbance response left in the sine points (disturbance passes 0): " +
+        std::to_string(disturbed.size()) +
+        " sine run(s) have a nonzero disturbance_v; their points read θ against the plant input "
+        "with d(t) in it (effect_sine_point.hpp), where a pulse transient in the steady-state "
+        "window still biases them");
+    return;
+  }
+  if (!fit.usable()) return;
   detail::ProgressReporter progress(options);
   const auto passes = static_cast<std::size_t>(options.disturbance_passes);
   KnownDisturbanceCorrection done;

@@ -358,6 +358,9 @@ TEST(FitStages, KnownDisturbanceResponseIsTakenOutOfTheSinePoints) {
     FitPipelineOptions off = o;
     off.disturbance_passes = 0;
     const DatasetFit before = run_stages(6, pulses.index, pulses.runs, off);
+    EXPECT_EQ(before.disturbance_correction.runs_with_disturbance, 9u);  // counted, not corrected
+    EXPECT_EQ(before.disturbance_correction.passes, 0);
+    EXPECT_TRUE(has_note(before, "known disturbance response left in the sine points"));
     const DatasetFit after = run_stages(6, pulses.index, pulses.runs, o);
     const PointErrors eb = point_errors(before, truth), ea = point_errors(after, truth);
     std::printf("seed %d: RMS %.3g -> %.3g, max C %.3g -> %.3g, max beta %.3g -> %.3g\n",

@@ -96,8 +96,9 @@ void choose_model_simulation(const std::vector<RunData>& data, const FitPipeline
 /// to θ (RMS) is kept: the α-model's breakpoint search can make the refits cycle instead of
 /// settle. Replaces what stages 1-6 left in `fit` by the kept pass's result (the runs stages 7-9
 /// take stay the measured ones, with their columns) and sets `fit.disturbance_correction` and a
-/// note. Does nothing when options.disturbance_passes is 0, no sine run has a nonzero
-/// disturbance, or stage 5 left no model. Needs stages 1-6; run before stage 7.
+/// note. Does nothing when no sine run has a nonzero disturbance; only counts them (and notes it)
+/// when options.disturbance_passes is 0 or stage 5 left no model. Needs stages 1-6; run before
+/// stage 7.
 void remove_known_disturbance_response(const Dataset& dataset, const std::vector<RunData>& data,
                                        const FitPipelineOptions& options, DatasetFit& fit);
 
