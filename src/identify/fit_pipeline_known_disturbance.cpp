@@ -168,7 +168,7 @@ void remove_known_disturbance_response(const Dataset& dataset, const std::vector
       best = current;
       best_pass = pass;
     }
-    if (pass == 0 || rms < best_rms) best_rms = rms;
+    if ((pass == 0 && std::isfinite(rms)) || rms < best_rms) best_rms = rms;
     if (!refit || ok_runs == 0) break;
     done.runs_corrected = ok_runs;
     DatasetFit next = sine_stages(dataset, corrected, options);
@@ -179,7 +179,7 @@ void remove_known_disturbance_response(const Dataset& dataset, const std::vector
   }
   progress("known disturbance response", passes + 1, passes + 1);
   done.chosen_pass = static_cast<int>(best_pass);
-  done.chosen_rms_rad = best_rms;
+  done.chosen_rms_rad = std::isfinite(best_rms) ? best_rms : done.first_pass_rms_rad;
   if (done.passes == 0) {
     fit.disturbance_correction = done;
     fit.notes.push_back(
