@@ -118,6 +118,7 @@ int run_fit(const FitCommandOptions& opt) {
   std::string effects_source;
   popt.threads = opt.threads;
   popt.n_breakpoints = opt.n_breakpoints;
+  popt.disturbance_passes = opt.disturbance_passes;
   DatasetWithRuns held_out;  // --holdout and --validate-on: validated on, not fitted on
   std::string held_out_label;
   try {
@@ -252,6 +253,14 @@ int run_fit(const FitCommandOptions& opt) {
     j["linear"] = errors_json(fit.linear_errors);
     j["alpha"] = errors_json(fit.alpha_errors);
     j["step_error_ratio"] = num(ratio);
+    const KnownDisturbanceCorrection& dc = fit.disturbance_correction;
+    j["disturbance_correction"] = {{"runs_with_disturbance", dc.runs_with_disturbance},
+                                   {"runs_corrected", dc.runs_corrected},
+                                   {"passes", dc.passes},
+                                   {"last_point_change", num(dc.last_point_change)},
+                                   {"chosen_pass", dc.chosen_pass},
+                                   {"first_pass_rms", num(dc.first_pass_rms_rad)},
+                                   {"chosen_rms", num(dc.chosen_rms_rad)}};
     j["model"] = (out / "model.json").string();
     if (validation) {
       j["validation"] = validation_json((out / "model.json").string(), held_out_label, *validation);

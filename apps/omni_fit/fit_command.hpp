@@ -17,6 +17,9 @@ struct FitCommandOptions {
   bool no_plots = false;  ///< skip the report's figures (no data, scripts or PNGs)
   unsigned threads = 0;
   std::size_t n_breakpoints = 4;
+  /// --disturbance-passes N: passes of the known-disturbance correction of the sine points
+  /// (FitPipelineOptions::disturbance_passes; 0: off).
+  int disturbance_passes = 3;
   /// --effects-from: a model.json whose `effects` the fit takes as known (empty: none).
   std::string effects_from;
   /// --effect NAME:PARAM=VALUE[,PARAM=VALUE]: known effects, applied after --effects-from.

@@ -31,6 +31,11 @@ int main(int argc, char** argv) {
   fitc->add_option("--threads", fo.threads, "threads for the validation runs (default: all cores)");
   fitc->add_option("--breakpoints", fo.n_breakpoints, "number of alpha breakpoints N (2..8)")
       ->capture_default_str()->check(CLI::Range(2, 8));
+  fitc->add_option("--disturbance-passes", fo.disturbance_passes,
+                   "sine runs with a known disturbance_v: passes that simulate the model's "
+                   "response to it, take it out of the run and refit the sine points, until they "
+                   "move < 0.1 % (0: off)")
+      ->capture_default_str()->check(CLI::Range(0, 100));
   fitc->add_option("--effects-from", fo.effects_from,
                    "fit with the known effects of this model.json (its \"effects\", e.g. from "
                    "`omni_fit diagnose`): the sine points are corrected for them, the simulations "

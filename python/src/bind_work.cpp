@@ -191,6 +191,14 @@ struct FitOutcome {
     d["figures"] = figures();
     d["model"] = json_loads(format_model_file(model));
     d["notes"] = fit.notes;
+    const KnownDisturbanceCorrection& dc = fit.disturbance_correction;
+    py::dict dist;  // the names of `omni_fit fit --json` "disturbance_correction"
+    dist["runs_with_disturbance"] = dc.runs_with_disturbance;
+    dist["runs_corrected"] = dc.runs_corrected;
+    dist["passes"] = dc.passes, dist["last_point_change"] = dc.last_point_change;
+    dist["chosen_pass"] = dc.chosen_pass, dist["first_pass_rms"] = dc.first_pass_rms_rad;
+    dist["chosen_rms"] = dc.chosen_rms_rad;
+    d["disturbance_correction"] = dist;
     py::dict pts;
     for (auto item : sine_points()) pts[item.first] = item.second.attr("tolist")();
     d["sine_points"] = pts;
@@ -218,6 +226,7 @@ FitPipelineOptions fit_options(Options& o, Progress* progress) {
   o.get("loop_period_s", p.loop_period_s);
   o.get("refine_breakpoints", p.refine_breakpoints);
   o.get("alpha_consistent_inertia", p.alpha_consistent_inertia);
+  o.get("disturbance_passes", p.disturbance_passes);
   o.get_effects("effects", p.effects);
   if (progress) {
     py::object cb = o.raw("progress");
@@ -521,7 +530,9 @@ points (19)-(20) per sine run, the global linear model (22) per pose, the inerti
 
 dataset: a Dataset or a folder. Options (FitPipelineOptions): settle_fraction, n_breakpoints,
 threads (0: all cores), run_validation, time_domain, loop_period_s, refine_breakpoints,
-alpha_consistent_inertia, effects (known effects: an Effects, spec strings or a dict),
+alpha_consistent_inertia, disturbance_passes (stage 6a, fit_stages.hpp: passes taking the
+known disturbance response out of the sine points; 0: off), effects (known effects: an Effects,
+spec strings or a dict),
 refine_effects (refine them on all runs, effect_refinement.hpp), progress (a callable
 (stage, done, total), called with the GIL from any thread). The GIL is released while it runs.
 Never raises on what the data cannot support (the result says); raises alphainv.Error for an

@@ -338,6 +338,10 @@ void FitPipelineOptions::validate() const {
     detail::bad("FitPipelineOptions::loop_period_s",
                 "NaN (from the sample rate), 0 (off) or a period > 0 [s]", loop_period_s);
   }
+  if (disturbance_passes < 0 || disturbance_passes > 100) {
+    detail::bad("FitPipelineOptions::disturbance_passes", "0 (off) to 100 passes",
+                static_cast<double>(disturbance_passes));
+  }
   validate_effects(effects, "FitPipelineOptions::effects.");
 }
 
@@ -777,6 +781,7 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
   fit_inertia_across_poses(options, fit);
   fit_alpha_invariant_model(options, fit);
   choose_model_simulation(data, options, fit);
+  remove_known_disturbance_response(dataset, data, options, fit);
   if (options.time_domain) fit_time_domain_poses(dataset, data, options, fit);
   if (options.run_validation) {
     simulate_validation_runs(dataset, data, options, fit);

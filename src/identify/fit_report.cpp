@@ -27,6 +27,21 @@ std::string pose_label(const PoseFit& p) {
   return fmt(*p.gamma1_deg, "%.2f") + "° / " + fmt(*p.gamma2_deg, "%.2f") + "°";
 }
 
+/// remove_known_disturbance_response()'s outcome in one phrase.
+std::string disturbance_correction_text(const DatasetFit& fit) {
+  const KnownDisturbanceCorrection& d = fit.disturbance_correction;
+  if (d.passes == 0) {
+    return "not taken out of the " + std::to_string(d.runs_with_disturbance) +
+           " sine run(s) with a disturbance_v (off, or the simulations failed)";
+  }
+  return "taken out of " + std::to_string(d.runs_corrected) + " of " +
+         std::to_string(d.runs_with_disturbance) + " sine run(s) with a disturbance_v, " +
+         std::to_string(d.passes) + " pass(es), last point change " +
+         fmt(100 * d.last_point_change, "%.3g") + " %, kept pass " +
+         std::to_string(d.chosen_pass) + " (RMS on those runs " +
+         fmt(d.first_pass_rms_rad, "%.3g") + " → " + fmt(d.chosen_rms_rad, "%.3g") + " rad)";
+}
+
 /// Title, the dataset, the known effects and the notes.
 void header_section(std::ostringstream& r, const Dataset& ds, const DatasetFit& fit,
                     const FitReportInfo& info) {
@@ -50,6 +65,10 @@ void header_section(std::ostringstream& r, const Dataset& ds, const DatasetFit& 
       << ". The local points of the sine runs were corrected for them (C_data, β_data against the "
          "plant input through the effects), the validation simulations include them, and "
          "model.json carries them.\n\n";
+  }
+  if (fit.disturbance_correction.runs_with_disturbance > 0) {
+    r << "**Known disturbance response** (stage 6a): " << disturbance_correction_text(fit)
+      << ".\n\n";
   }
   if (!fit.notes.empty()) {
     r << "## What the data could and could not support\n\n";
@@ -229,6 +248,9 @@ std::string DatasetFit::full_report() const {
                               : std::string("continuous loop")) +
          (active_effects(effects).empty() ? "" : "; known effects: " + effects_text(effects)) +
          "\n";
+  if (disturbance_correction.runs_with_disturbance > 0) {
+    out += "  known disturbance response: " + disturbance_correction_text(*this) + "\n";
+  }
   for (const PoseFit& p : poses) {
     if (!p.linear.valid) continue;
     out += "  linear model at " + pose_label(p) + ": C_linear " + fmt(p.linear.c_linear) +

@@ -301,6 +301,11 @@ TEST(FitPipeline, OptionsValidateThemselvesNamingTheField) {
   o.effects.delay_s = -1.0;
   EXPECT_EQ(field(o), "FitPipelineOptions::effects.delay_s");
   o = FitPipelineOptions{};
+  o.disturbance_passes = -1;
+  EXPECT_EQ(field(o), "FitPipelineOptions::disturbance_passes");
+  o.disturbance_passes = 0;  // off
+  EXPECT_NO_THROW(o.validate());
+  o = FitPipelineOptions{};
   o.n_breakpoints = 1;
   Dataset ds;
   std::vector<RunData> data;

@@ -36,6 +36,9 @@ def test_fit_recovers_the_plants_damping_along_the_data(one_pose, fitted):
     assert fitted.figures["alpha"]["step_median_abs_err"] < fitted.figures["linear"]["step_median_abs_err"]
     d = fitted.to_dict()
     assert d["model"]["schema"] == "alphainv-model/1" and d["figures"] == fitted.figures
+    # no disturbance_v column: stage 6a (the known disturbance response) had nothing to do
+    assert d["disturbance_correction"]["runs_with_disturbance"] == 0
+    assert d["disturbance_correction"]["passes"] == 0
     assert "dataset fit: usable" in fitted.brief_report and "# " in fitted.report_markdown
 
 
@@ -72,6 +75,9 @@ def test_bad_options_raise_naming_the_option(one_pose):
     with pytest.raises(alphainv.Error) as e:
         alphainv.fit(one_pose, n_breakpoints=12)
     assert "n_breakpoints" in e.value.field
+    with pytest.raises(alphainv.Error) as e:
+        alphainv.fit(one_pose, disturbance_passes=-1)
+    assert e.value.field == "FitPipelineOptions::disturbance_passes"
     with pytest.raises(alphainv.Error) as e:
         alphainv.fit(one_pose, settle_fraction="half")
     assert e.value.field == "settle_fraction"

@@ -58,10 +58,17 @@ struct FitPipelineOptions {
   /// command also make the plant's α̂ swing within a period, which biases points on a steep
   /// stretch of C(α) (tests/test_parameter_recovery.cpp).
   Effects effects;
+  /// Passes of remove_known_disturbance_response() (fit_stages.hpp), at most: the response of the
+  /// first-pass model to a sine run's known disturbance (its `disturbance_v` column) simulated and
+  /// taken out of the run, the sine stages refitted, until the points move < 0.1 %. It runs only
+  /// when some sine run has a nonzero disturbance_v; 0: off (the points read θ against the plant
+  /// input with d(t) in it, effect_sine_point.hpp, and nothing more).
+  int disturbance_passes = 3;
 
   /// Throws alphainv::Error naming the first setting out of range ("FitPipelineOptions::…"):
   /// settle_fraction in [0, 1), n_breakpoints in [2, kMaxBreakpoints], loop_period_s NaN, 0 or a
-  /// finite period > 0, and the effects (validate_effects()). fit_dataset() calls it.
+  /// finite period > 0, disturbance_passes in [0, 100], and the effects (validate_effects()).
+  /// fit_dataset() calls it.
   void validate() const;
 };
 
@@ -85,6 +92,23 @@ struct ModelErrors {
   double step_p90_abs_err = std::numeric_limits<double>::quiet_NaN();     ///< [position unit]
   /// Median over the runs of ‖θ_sim − θ‖/‖θ‖ (every simulated run, any kind) [1].
   double rel_position_error_median = std::numeric_limits<double>::quiet_NaN();
+};
+
+/// What remove_known_disturbance_response() (fit_stages.hpp) did: the known disturbance response
+/// simulated and taken out of the sine runs before their points were refitted.
+struct KnownDisturbanceCorrection {
+  std::size_t runs_with_disturbance = 0;  ///< sine runs with a nonzero disturbance_v column
+  std::size_t runs_corrected = 0;         ///< of those, the runs corrected (both simulations ran)
+  int passes = 0;  ///< refits of the sine stages done (0: the stage did not run)
+  /// Largest relative change of a physical point's C_data or β_data in the last pass [1]; NaN
+  /// when no pass ran.
+  double last_point_change = std::numeric_limits<double>::quiet_NaN();
+  /// The pass whose model was kept (0: the first pass, uncorrected): the one whose simulation of
+  /// the disturbed runs, with their columns, is closest to the measured θ.
+  int chosen_pass = 0;
+  /// RMS of θ_sim − θ over the disturbed runs [rad]: the first pass's model, the kept one's.
+  double first_pass_rms_rad = std::numeric_limits<double>::quiet_NaN();
+  double chosen_rms_rad = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// One pose (set of runs with the same γ1, γ2).
@@ -133,6 +157,8 @@ struct DatasetFit {
   /// The known effects the fit assumed (FitPipelineOptions::effects); model_for_pose() carries
   /// them into the simulations.
   Effects effects;
+  /// The known disturbance response taken out of the sine points (stage 6a, fit_stages.hpp).
+  KnownDisturbanceCorrection disturbance_correction;
   std::vector<RunValidation> validation;
   std::vector<std::string> notes;  ///< what could not be done, and why; choices made
   ModelErrors linear_errors, alpha_errors;  ///< medians over poses of the per-pose figures

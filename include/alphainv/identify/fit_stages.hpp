@@ -8,6 +8,8 @@
 ///   4. fit_inertia_across_poses()   the inertia model (6), (27)-(29) (section 2.2.6)
 ///   5. fit_alpha_invariant_model()  the α-invariant model (38)-(42) (section 2.3.5)
 ///   6. choose_model_simulation()    how the models are simulated: (43) or the digital loop
+///  6a. remove_known_disturbance_response()  the sine runs' known disturbance response taken out,
+///                                  stages 1-6 again on the corrected runs (only with pulses)
 ///   7. fit_time_domain_poses()      output error for poses without sine runs (time_domain_fit.hpp)
 ///   8. simulate_validation_runs()   every run simulated with both models (section 2.4)
 ///   9. summarise_validation()       Table 8 and Table 11 figures from those simulations
@@ -78,6 +80,27 @@ void fit_alpha_invariant_model(const FitPipelineOptions& options, DatasetFit& fi
 /// must do without sine runs. Needs stage 2.
 void choose_model_simulation(const std::vector<RunData>& data, const FitPipelineOptions& options,
                              DatasetFit& fit);
+
+/// Stage 6a: the response to a known disturbance taken out of the sine points. A sine run with a
+/// nonzero `disturbance_v` column d(t) holds, besides its sine response, the loop's response to
+/// d; the points of stage 2 read θ against the plant input with d in it (effect_sine_point.hpp),
+/// but a pulse transient inside the steady-state window leaks into the windowed sine fits (15)
+/// (seed 7, pose 2, ±0.1 V pulses: C_data off by up to 23 % against the same runs without pulses).
+/// So, per pass: every such run simulated (simulate_recorded_run(), fit.simulation) with the model
+/// of its pose (DatasetFit::model_for_pose(): the α-model when there is one), once with and once
+/// without its disturbance_v column; the difference (θ and v) subtracted from the measured run,
+/// the column dropped; stages 1-6 run again on the corrected runs. Repeated until no physical
+/// point's C_data or β_data moves by 0.1 % or more, or options.disturbance_passes passes; each
+/// pass simulates with the previous pass's model, always on the measured runs. Of the first pass
+/// and the refits, the one whose models simulate the measured disturbed runs (columns in) closest
+/// to θ (RMS) is kept: the α-model's breakpoint search can make the refits cycle instead of
+/// settle. Replaces what stages 1-6 left in `fit` by the kept pass's result (the runs stages 7-9
+/// take stay the measured ones, with their columns) and sets `fit.disturbance_correction` and a
+/// note. Does nothing when no sine run has a nonzero disturbance; only counts them (and notes it)
+/// when options.disturbance_passes is 0 or stage 5 left no model. Needs stages 1-6; run before
+/// stage 7.
+void remove_known_disturbance_response(const Dataset& dataset, const std::vector<RunData>& data,
+                                       const FitPipelineOptions& options, DatasetFit& fit);
 
 /// Stage 7 (time_domain_fit.hpp): the linear model of every pose that has none yet (no sine runs,
 /// and no inertia model to predict it) by output error on the pose's runs under their own
