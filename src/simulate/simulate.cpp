@@ -356,6 +356,7 @@ void simulate_digital(const JointModelAtPose& model, const Controller& ctl, bool
           : (open_loop ? r0.r : ctl.clamp(ctl.kp * (r0.r - init.theta) + ctl.ki * init.integral));
   p.effects = model.effects;
   p.exact_constant_segments = true;  // the exact segment where n is free of the state
+  p.precomputed_torque = true;       // n by TorqueEffects (equal to effect_torque to rounding)
   std::unique_ptr<VirtualOmni> omni;
   std::string last_error;
   const int substeps = model_simulation_substeps(p);  // as many as the stiffest effect needs

@@ -150,6 +150,7 @@ VirtualOmni::VirtualOmni(const VirtualOmniParams& params)
   if (delay_fraction_ < kDelayFractionEps) delay_fraction_ = 0.0;
   delay_line_.assign(delay_ticks_ + 2, params_.initial_command_v);  // v_k … v_{k−m−1}
   exact_segments_ = params_.exact_constant_segments && !torque_depends_on_state(params_.effects);
+  torque_ = TorqueEffects(params_.effects);
   reset();
 }
 
@@ -182,6 +183,7 @@ bool VirtualOmni::set_pose(double gamma1_deg, double gamma2_deg) noexcept {
 }
 
 double VirtualOmni::effect_torque(double theta_rad, double theta_dot_rad_s) const noexcept {
+  if (params_.precomputed_torque) return torque_.torque(theta_rad, theta_dot_rad_s);
   return alphainv::effect_torque(params_.effects, theta_rad, theta_dot_rad_s);
 }
 
@@ -193,10 +195,21 @@ void VirtualOmni::integrate(double t0_s, double duration_s, double input_v,
     integrate_exact(duration_s, input_v, known);
     return;
   }
+  if (params_.precomputed_torque) {
+    integrate_rk4(torque_, t0_s, duration_s, input_v, known);
+  } else {
+    integrate_rk4(params_.effects, t0_s, duration_s, input_v, known);
+  }
+}
+
+/// `substeps` RK4 steps of eq. (11) over the segment, n(θ, θ̇) from `torque` (the Effects or its
+/// TorqueEffects: plant_torque() of either).
+template <class Torque>
+void VirtualOmni::integrate_rk4(const Torque& torque, double t0_s, double duration_s,
+                                double input_v, const KnownInputs& known) noexcept {
   const double c = damping_, bt = beta_tilde_;
-  const Effects& fx = params_.effects;
   auto accel = [&](double t, double th, double om) noexcept {
-    return -c * om + bt * (input_v + plant_torque(fx, t, th, om, known));
+    return -c * om + bt * (input_v + plant_torque(torque, t, th, om, known));
   };
   const int n = params_.substeps;
   const double h = duration_s / n;
@@ -218,8 +231,7 @@ void VirtualOmni::integrate_exact(double duration_s, double input_v,
                                   const KnownInputs& known) noexcept {
   // The closed form of the file comment: Φ̇ = −C·Φ + a with a = β̃·(u + n + d) constant.
   const double c = damping_, h = duration_s;
-  const double a = beta_tilde_ * (input_v + plant_torque(params_.effects, 0.0, theta_, theta_dot_,
-                                                         known));
+  const double a = beta_tilde_ * (input_v + plant_torque(torque_, 0.0, theta_, theta_dot_, known));
   const double ch = c * h;
   if (!(ch > 1e-12)) {  // C·h at rounding level: constant acceleration
     theta_ += h * theta_dot_ + 0.5 * a * h * h;
