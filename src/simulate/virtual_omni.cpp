@@ -144,6 +144,7 @@ VirtualOmni::VirtualOmni(const VirtualOmniParams& params)
     : params_(params), estimator_((params.validate(), params.alpha_filter)) {
   inertia_ =
       params_.inertia.inertia(deg_to_rad(params_.gamma1_deg), deg_to_rad(params_.gamma2_deg));
+  alpha_at_pose_ = params_.alpha_model.at_inertia(inertia_);
   const double ticks = params_.effects.delay_s / params_.tick_period_s;
   delay_ticks_ = static_cast<std::size_t>(std::floor(ticks + kDelayFractionEps));
   delay_fraction_ = ticks - static_cast<double>(delay_ticks_);
@@ -164,8 +165,8 @@ void VirtualOmni::reset() noexcept {
   has_spare_gaussian_ = false;
   spare_gaussian_ = 0.0;
   alpha_ = 0.0;
-  damping_ = params_.alpha_model.damping(alpha_, inertia_);
-  beta_tilde_ = params_.alpha_model.beta_tilde(alpha_, inertia_);
+  damping_ = alpha_at_pose_.damping(alpha_);
+  beta_tilde_ = alpha_at_pose_.beta_tilde(alpha_);
   v_eff_mean_ = v_eff_peak_ = applied_command(params_.effects, params_.initial_command_v);
   time_s_ = 0.0;
   ticks_ = 0;
@@ -179,6 +180,7 @@ bool VirtualOmni::set_pose(double gamma1_deg, double gamma2_deg) noexcept {
   params_.gamma1_deg = gamma1_deg;
   params_.gamma2_deg = gamma2_deg;
   inertia_ = i;
+  alpha_at_pose_ = params_.alpha_model.at_inertia(inertia_);
   return true;
 }
 
@@ -238,17 +240,22 @@ void VirtualOmni::integrate_exact(double duration_s, double input_v,
     theta_dot_ += a * h;
     return;
   }
-  const double decayed = -std::expm1(-ch);  // 1 − e^(−Ch)
   // rest = C·h − (1 − e^(−Ch)) = Σ_{k≥2} (−C·h)^k/k!: by its series where the difference would
-  // cancel (C·h < 1/4: the 14th term is below 1e-20 of the first), else directly.
-  double rest = 0.0;
+  // cancel (C·h < 1/4: the 14th term is below 1e-20 of the first; the sum stops once the next
+  // term is below 1e-17 of it, which bounds what the alternating tail adds), and then
+  // 1 − e^(−Ch) = C·h − rest (rest ≤ C·h/8: no cancellation, no expm1 per tick); else
+  // 1 − e^(−Ch) by expm1 and rest directly.
+  double decayed = 0.0, rest = 0.0;
   if (ch < 0.25) {
     double term = 0.5 * ch * ch;
     for (int k = 3; k <= 14; ++k) {
       rest += term;
       term *= -ch / k;
+      if (std::abs(term) < 1e-17 * rest) break;
     }
+    decayed = ch - rest;
   } else {
+    decayed = -std::expm1(-ch);
     rest = ch - decayed;
   }
   const double v_inf = a / c;  // the velocity the segment tends to
@@ -297,8 +304,8 @@ void VirtualOmni::command_path(double command_v, const KnownInputs& known, doubl
 
   // α of the received command, then C(α, I) and β̃(α, I) for this tick (eqs. (33), (38)-(42)).
   alpha_ = estimator_.update(v_eff_mean_).alpha;
-  damping_ = params_.alpha_model.damping(alpha_, inertia_);
-  beta_tilde_ = params_.alpha_model.beta_tilde(alpha_, inertia_);
+  damping_ = alpha_at_pose_.damping(alpha_);
+  beta_tilde_ = alpha_at_pose_.beta_tilde(alpha_);
 }
 
 void VirtualOmni::prime_commands(const double* commands_v, std::size_t n) noexcept {

@@ -183,6 +183,7 @@ class VirtualOmni {
 
   VirtualOmniParams params_;
   double inertia_ = 1.0;
+  AlphaModelAtInertia alpha_at_pose_;  ///< params_.alpha_model at inertia_ (bit for bit the same)
   bool exact_segments_ = false;  ///< exact_constant_segments and n free of the state
   TorqueEffects torque_;  ///< params_.effects precomputed (used with precomputed_torque)
   rt::AlphaEstimator estimator_;
