@@ -339,8 +339,9 @@ Effects global_gravity_start(const std::vector<DiagnoseRun>& runs,
 
 }  // namespace
 
-Reidentifier::Reidentifier(const std::vector<DiagnoseRun>& runs, double sample_period_s)
-    : sample_period_s_(sample_period_s) {
+Reidentifier::Reidentifier(const std::vector<DiagnoseRun>& runs, double sample_period_s,
+                           unsigned threads)
+    : sample_period_s_(sample_period_s), threads_(threads) {
   if (runs.empty() || !runs.front().model.use_alpha) return;
   const AlphaModel& a = runs.front().model.alpha;
   options_.n_breakpoints = a.n_breakpoints;
@@ -382,9 +383,14 @@ std::optional<AlphaModel> Reidentifier::fit(const Effects& e) const {
 std::vector<AlphaFitPose> Reidentifier::points(const Effects& e) const {
   std::vector<AlphaFitPose> poses(inertia_.size());
   for (std::size_t k = 0; k < poses.size(); ++k) poses[k].inertia = inertia_[k];
-  for (const SineRun& s : sines_) {
-    poses[s.pose].points.push_back(sine_point_with_effects(
-        *s.run->data, s.window, *s.run->freq_hz, options_.kp, sample_period_s_, e, s.theta_dot));
+  std::vector<LocalLinearPoint> points(sines_.size());  // side by side, then in run order
+  parallel_for(sines_.size(), threads_, [&](std::size_t k) {
+    const SineRun& s = sines_[k];
+    points[k] = sine_point_with_effects(*s.run->data, s.window, *s.run->freq_hz, options_.kp,
+                                        sample_period_s_, e, s.theta_dot);
+  });
+  for (std::size_t k = 0; k < sines_.size(); ++k) {
+    poses[sines_[k].pose].points.push_back(std::move(points[k]));
   }
   return poses;
 }
@@ -1550,7 +1556,8 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
 
   const std::vector<DiagnoseRun> no_runs;
   // (runs_in must outlive reid: it keeps pointers to the sine runs)
-  const Reidentifier reid(opt.reidentify ? runs_in : no_runs, opt.simulation.loop_period_s);
+  const Reidentifier reid(opt.reidentify ? runs_in : no_runs, opt.simulation.loop_period_s,
+                          opt.threads);
   // The noise floor from the residual of the model given (its white part does not depend on
   // the model), and the verdict on that model.
   res.noise_floor = estimate_noise_floor(residual_series(runs_in, sims0));

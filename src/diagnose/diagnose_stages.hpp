@@ -130,7 +130,8 @@ ResidualLocation locate(const std::vector<DiagnoseRun>& runs,
 class Reidentifier {
  public:
   /// `sample_period_s`: the controller tick of the digital-loop correction [s]; 0: continuous.
-  Reidentifier(const std::vector<DiagnoseRun>& runs, double sample_period_s);
+  /// `threads`: the sine runs' points computed side by side (0: all cores).
+  Reidentifier(const std::vector<DiagnoseRun>& runs, double sample_period_s, unsigned threads = 1);
 
   bool usable() const { return usable_; }
 
@@ -157,6 +158,7 @@ class Reidentifier {
   };
 
   double sample_period_s_ = 0.0;
+  unsigned threads_ = 1;
   AlphaFitOptions options_;
   std::vector<double> inertia_;
   std::vector<SineRun> sines_;

@@ -64,6 +64,14 @@ class RunMemo {
     push(thetas_, {std::vector<double>(p, p + np), ok ? theta : std::vector<double>{}, ok},
          kThetas);
   }
+  /// Whether the Jacobian at p with residual scale `scale` is held.
+  bool has_jacobian(const double* p, std::size_t np, double scale) const {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    for (const Entry& e : jacobians_) {
+      if (e.scale == scale && same(e.p, p, np)) return true;
+    }
+    return false;
+  }
   /// The Jacobian (row-major, residuals × parameters) at p with residual scale `scale`.
   bool find_jacobian(const double* p, std::size_t np, double scale, double* out) const {
     const std::lock_guard<std::mutex> lock(mutex_);
@@ -132,34 +140,58 @@ class RunCost final : public ceres::CostFunction {
 
   bool Evaluate(double const* const* params, double* residuals, double** jacobians) const override {
     const std::size_t np = problem_.parameters.size();
-    const std::vector<double> p(params[0], params[0] + np);
-    if (!base_residual_at(p.data(), residuals)) return false;
+    const double* p = params[0];
+    if (!base_residual_at(p, residuals)) return false;
     if (jacobians == nullptr || jacobians[0] == nullptr) return true;
-    const std::size_t m = idx_.size();
-    if (memo_ != nullptr && memo_->find_jacobian(p.data(), np, scale_, jacobians[0])) return true;
+    if (memo_ != nullptr && memo_->find_jacobian(p, np, scale_, jacobians[0])) return true;
     // Central differences, the 2·P perturbed simulations spread over the threads.
-    std::vector<std::vector<double>> plus(np, std::vector<double>(m)), minus(plus);
-    std::vector<double> step_hi(np), step_lo(np);
-    std::vector<char> ok(2 * np, 0);
-    common::parallel_for(2 * np, threads_, [&](std::size_t job) {
-      const std::size_t j = job / 2;
-      const OutputErrorParameter& par = problem_.parameters[j];
-      const double x = p[j], h = fd_step(par, x);
-      step_hi[j] = std::min(x + h, par.upper);
-      step_lo[j] = std::max(x - h, par.lower);
-      std::vector<double> q(p);
-      q[j] = job % 2 == 0 ? step_hi[j] : step_lo[j];
-      ok[job] = residual_at(q.data(), job % 2 == 0 ? plus[j].data() : minus[j].data());
-    });
-    for (std::size_t j = 0; j < np; ++j) {
-      const double dx = step_hi[j] - step_lo[j];
-      const bool good = ok[2 * j] && ok[2 * j + 1] && dx > 0.0;
-      for (std::size_t i = 0; i < m; ++i)
-        jacobians[0][i * np + j] = good ? (plus[j][i] - minus[j][i]) / dx : 0.0;
-    }
-    if (memo_ != nullptr) memo_->add_jacobian(p.data(), np, scale_, jacobians[0], m * np);
+    JacobianWork w = jacobian_work();
+    common::parallel_for(2 * np, threads_, [&](std::size_t job) { perturbed(p, job, w); });
+    finish_jacobian(p, w, jacobians[0]);
     return true;
   }
+
+  /// The 2·P perturbed simulations of a central-difference Jacobian (job 2j: parameter j
+  /// stepped up, 2j + 1: down), each job writing only its own slots.
+  struct JacobianWork {
+    std::vector<std::vector<double>> residuals;  ///< per job, residual_count() values
+    std::vector<double> stepped;                 ///< per job, the stepped parameter value
+    std::vector<char> ok;                        ///< per job, whether it simulated
+  };
+  JacobianWork jacobian_work() const {
+    const std::size_t jobs = 2 * problem_.parameters.size();
+    return {std::vector<std::vector<double>>(jobs, std::vector<double>(idx_.size())),
+            std::vector<double>(jobs), std::vector<char>(jobs, 0)};
+  }
+  /// Job `job` of the Jacobian at p into `w` (thread-safe: writes only the job's slots).
+  void perturbed(const double* p, std::size_t job, JacobianWork& w) const {
+    const std::size_t np = problem_.parameters.size();
+    const std::size_t j = job / 2;
+    const OutputErrorParameter& par = problem_.parameters[j];
+    const double x = p[j], h = fd_step(par, x);
+    w.stepped[job] = job % 2 == 0 ? std::min(x + h, par.upper) : std::max(x - h, par.lower);
+    std::vector<double> q(p, p + np);
+    q[j] = w.stepped[job];
+    w.ok[job] = residual_at(q.data(), w.residuals[job].data());
+  }
+  /// The Jacobian (row-major) at p from the finished jobs `w` into `jac`, and into the memo.
+  void finish_jacobian(const double* p, const JacobianWork& w, double* jac) const {
+    const std::size_t np = problem_.parameters.size();
+    const std::size_t m = idx_.size();
+    for (std::size_t j = 0; j < np; ++j) {
+      const double dx = w.stepped[2 * j] - w.stepped[2 * j + 1];
+      const bool good = w.ok[2 * j] && w.ok[2 * j + 1] && dx > 0.0;
+      const std::vector<double>& plus = w.residuals[2 * j];
+      const std::vector<double>& minus = w.residuals[2 * j + 1];
+      for (std::size_t i = 0; i < m; ++i) jac[i * np + j] = good ? (plus[i] - minus[i]) / dx : 0.0;
+    }
+    if (memo_ != nullptr) memo_->add_jacobian(p, np, scale_, jac, m * np);
+  }
+  /// Whether Evaluate() at p would still compute the Jacobian (no memo, or not held).
+  bool needs_jacobian(const double* p) const {
+    return memo_ == nullptr || !memo_->has_jacobian(p, problem_.parameters.size(), scale_);
+  }
+  std::size_t parameter_count() const { return problem_.parameters.size(); }
 
   /// The residuals at a point the solver asks for (through the memo).
   bool base_residual_at(const double* p, double* out) const {
@@ -197,6 +229,53 @@ class RunCost final : public ceres::CostFunction {
   double scale_ = 1.0;
   std::vector<std::size_t> idx_;
   double sqrt_w_ = 1.0;
+};
+
+/// Runs, before Ceres evaluates the runs' costs at a point, the simulations they will ask for:
+/// every run's at once over the threads, into the runs' memos, so that RunCost::Evaluate() then
+/// reads them. Ceres evaluates the residual blocks one after the other (num_threads = 1, so that
+/// its sums over the runs keep one order), and a cost-only evaluation or a Jacobian's base point
+/// would otherwise run one run at a time; the values are the same simulations, so the fit is the
+/// same bit for bit. Needs every RunCost to have a memo.
+class PrefetchSimulations final : public ceres::EvaluationCallback {
+ public:
+  /// `costs` (owned by the ceres::Problem) evaluated at the parameter block `x`.
+  PrefetchSimulations(const double* x, unsigned threads) : x_(x), threads_(threads) {}
+  void add(const RunCost* cost) { costs_.push_back(cost); }
+
+  void PrepareForEvaluation(bool evaluate_jacobians, bool new_evaluation_point) override {
+    (void)new_evaluation_point;  // the memos know what they hold
+    const std::size_t n = costs_.size();
+    std::vector<char> base_ok(n, 0);
+    common::parallel_for(n, threads_, [&](std::size_t i) {
+      std::vector<double> r(costs_[i]->residual_count());
+      base_ok[i] = costs_[i]->base_residual_at(x_, r.data());
+    });
+    if (!evaluate_jacobians) return;
+    std::vector<std::size_t> runs;  // the runs whose Jacobian Evaluate() would compute
+    for (std::size_t i = 0; i < n; ++i) {
+      if (base_ok[i] && costs_[i]->needs_jacobian(x_)) runs.push_back(i);
+    }
+    if (runs.empty()) return;
+    const std::size_t jobs_per_run = 2 * costs_.front()->parameter_count();
+    std::vector<RunCost::JacobianWork> work;
+    work.reserve(runs.size());
+    for (std::size_t i : runs) work.push_back(costs_[i]->jacobian_work());
+    common::parallel_for(runs.size() * jobs_per_run, threads_, [&](std::size_t k) {
+      const std::size_t r = k / jobs_per_run;
+      costs_[runs[r]]->perturbed(x_, k % jobs_per_run, work[r]);
+    });
+    for (std::size_t r = 0; r < runs.size(); ++r) {
+      const RunCost& c = *costs_[runs[r]];
+      std::vector<double> jac(c.residual_count() * c.parameter_count());
+      c.finish_jacobian(x_, work[r], jac.data());
+    }
+  }
+
+ private:
+  const double* x_;
+  unsigned threads_;
+  std::vector<const RunCost*> costs_;
 };
 
 std::string check_problem(const OutputErrorProblem& pr) {
@@ -316,10 +395,14 @@ std::vector<double> solve_from_starts(const OutputErrorProblem& problem,
       best = x;
       break;
     }
-    ceres::Problem cp;
+    PrefetchSimulations prefetch(x.data(), options.threads);
+    ceres::Problem::Options po;
+    po.evaluation_callback = &prefetch;
+    ceres::Problem cp(po);
     for (std::size_t i = 0; i < problem.runs.size(); ++i) {
-      cp.AddResidualBlock(new RunCost(problem, i, sims, scale, options.threads, &memos[i]),
-                          nullptr, x.data());
+      auto* cost = new RunCost(problem, i, sims, scale, options.threads, &memos[i]);
+      prefetch.add(cost);
+      cp.AddResidualBlock(cost, nullptr, x.data());
     }
     for (std::size_t j = 0; j < np; ++j) {
       const auto& par = problem.parameters[j];

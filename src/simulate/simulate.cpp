@@ -36,14 +36,7 @@ class ClosedLoop {
              const SimulationOptions& options, const KnownInputSeries& known,
              SimulationResult& stats)
       : model_(model), ctl_(controller), open_loop_(open_loop), opt_(options), known_(known),
-        stats_(stats) {
-    // Coefficients at the run's inertia, computed once (eq. (40), (42)).
-    const auto& a = model.alpha;
-    n_ = a.n_breakpoints;
-    for (std::size_t k = 0; k < n_; ++k) c_at_[k] = 1.0 / (a.c_n1[k] * model.inertia);
-    b_at_[0] = 1.0 / (a.beta_n1[0] * model.inertia);
-    b_at_[1] = 1.0 / (a.beta_n1[1] * model.inertia);
-  }
+        stats_(stats), alpha_at_(model.alpha.at_inertia(model.inertia)) {}
 
   /// v(t − τ) of the command history (the command before the first entry is the first one).
   double delayed_command(double t, double v_now) const {
@@ -109,14 +102,14 @@ class ClosedLoop {
     double alpha =
         known.torque_enabled ? alpha_instantaneous(v, v_dot_of(phi_dot), v_ddot_of(phi_dot)) : 0.0;
     if (model_.use_alpha && !known.torque_enabled) {
-      c = interpolate_held(model_.alpha.alpha.data(), c_at_.data(), n_, alpha);
-      b = interpolate_held(model_.alpha.beta_alpha.data(), b_at_.data(), 2, alpha);
+      c = alpha_at_.damping(alpha);
+      b = alpha_at_.beta_tilde(alpha);
       phi_dot = -c * phi + b * u;
     } else if (model_.use_alpha) {
       int it = 0;
       for (;;) {
-        c = interpolate_held(model_.alpha.alpha.data(), c_at_.data(), n_, alpha);
-        b = interpolate_held(model_.alpha.beta_alpha.data(), b_at_.data(), 2, alpha);
+        c = alpha_at_.damping(alpha);
+        b = alpha_at_.beta_tilde(alpha);
         phi_dot = -c * phi + b * u;  // eq. (44)
         const double next = alpha_instantaneous(v, v_dot_of(phi_dot), v_ddot_of(phi_dot));
         ++it;
@@ -129,8 +122,8 @@ class ClosedLoop {
         }
       }
       // Coefficients consistent with the final α (eq. (46) met).
-      c = interpolate_held(model_.alpha.alpha.data(), c_at_.data(), n_, alpha);
-      b = interpolate_held(model_.alpha.beta_alpha.data(), b_at_.data(), 2, alpha);
+      c = alpha_at_.damping(alpha);
+      b = alpha_at_.beta_tilde(alpha);
       phi_dot = -c * phi + b * u;
       stats_.fixed_point_iterations += it;
       stats_.max_fixed_point_iterations = std::max(stats_.max_fixed_point_iterations, it);
@@ -149,9 +142,8 @@ class ClosedLoop {
   const SimulationOptions& opt_;
   const KnownInputSeries& known_;
   SimulationResult& stats_;
-  std::size_t n_ = 0;
-  std::array<double, kMaxBreakpoints> c_at_{};
-  std::array<double, 2> b_at_{};
+  /// Coefficients at the run's inertia, computed once (eq. (40), (42)).
+  AlphaModelAtInertia alpha_at_;
   std::vector<double> history_t_, history_v_;  ///< command history (delay only)
 };
 
@@ -356,6 +348,7 @@ void simulate_digital(const JointModelAtPose& model, const Controller& ctl, bool
           : (open_loop ? r0.r : ctl.clamp(ctl.kp * (r0.r - init.theta) + ctl.ki * init.integral));
   p.effects = model.effects;
   p.exact_constant_segments = true;  // the exact segment where n is free of the state
+  p.precomputed_torque = true;       // n by TorqueEffects (equal to effect_torque to rounding)
   std::unique_ptr<VirtualOmni> omni;
   std::string last_error;
   const int substeps = model_simulation_substeps(p);  // as many as the stiffest effect needs

@@ -144,12 +144,14 @@ VirtualOmni::VirtualOmni(const VirtualOmniParams& params)
     : params_(params), estimator_((params.validate(), params.alpha_filter)) {
   inertia_ =
       params_.inertia.inertia(deg_to_rad(params_.gamma1_deg), deg_to_rad(params_.gamma2_deg));
+  alpha_at_pose_ = params_.alpha_model.at_inertia(inertia_);
   const double ticks = params_.effects.delay_s / params_.tick_period_s;
   delay_ticks_ = static_cast<std::size_t>(std::floor(ticks + kDelayFractionEps));
   delay_fraction_ = ticks - static_cast<double>(delay_ticks_);
   if (delay_fraction_ < kDelayFractionEps) delay_fraction_ = 0.0;
   delay_line_.assign(delay_ticks_ + 2, params_.initial_command_v);  // v_k … v_{k−m−1}
   exact_segments_ = params_.exact_constant_segments && !torque_depends_on_state(params_.effects);
+  torque_ = TorqueEffects(params_.effects);
   reset();
 }
 
@@ -163,8 +165,8 @@ void VirtualOmni::reset() noexcept {
   has_spare_gaussian_ = false;
   spare_gaussian_ = 0.0;
   alpha_ = 0.0;
-  damping_ = params_.alpha_model.damping(alpha_, inertia_);
-  beta_tilde_ = params_.alpha_model.beta_tilde(alpha_, inertia_);
+  damping_ = alpha_at_pose_.damping(alpha_);
+  beta_tilde_ = alpha_at_pose_.beta_tilde(alpha_);
   v_eff_mean_ = v_eff_peak_ = applied_command(params_.effects, params_.initial_command_v);
   time_s_ = 0.0;
   ticks_ = 0;
@@ -178,10 +180,12 @@ bool VirtualOmni::set_pose(double gamma1_deg, double gamma2_deg) noexcept {
   params_.gamma1_deg = gamma1_deg;
   params_.gamma2_deg = gamma2_deg;
   inertia_ = i;
+  alpha_at_pose_ = params_.alpha_model.at_inertia(inertia_);
   return true;
 }
 
 double VirtualOmni::effect_torque(double theta_rad, double theta_dot_rad_s) const noexcept {
+  if (params_.precomputed_torque) return torque_.torque(theta_rad, theta_dot_rad_s);
   return alphainv::effect_torque(params_.effects, theta_rad, theta_dot_rad_s);
 }
 
@@ -193,10 +197,21 @@ void VirtualOmni::integrate(double t0_s, double duration_s, double input_v,
     integrate_exact(duration_s, input_v, known);
     return;
   }
+  if (params_.precomputed_torque) {
+    integrate_rk4(torque_, t0_s, duration_s, input_v, known);
+  } else {
+    integrate_rk4(params_.effects, t0_s, duration_s, input_v, known);
+  }
+}
+
+/// `substeps` RK4 steps of eq. (11) over the segment, n(θ, θ̇) from `torque` (the Effects or its
+/// TorqueEffects: plant_torque() of either).
+template <class Torque>
+void VirtualOmni::integrate_rk4(const Torque& torque, double t0_s, double duration_s,
+                                double input_v, const KnownInputs& known) noexcept {
   const double c = damping_, bt = beta_tilde_;
-  const Effects& fx = params_.effects;
   auto accel = [&](double t, double th, double om) noexcept {
-    return -c * om + bt * (input_v + plant_torque(fx, t, th, om, known));
+    return -c * om + bt * (input_v + plant_torque(torque, t, th, om, known));
   };
   const int n = params_.substeps;
   const double h = duration_s / n;
@@ -218,25 +233,29 @@ void VirtualOmni::integrate_exact(double duration_s, double input_v,
                                   const KnownInputs& known) noexcept {
   // The closed form of the file comment: Φ̇ = −C·Φ + a with a = β̃·(u + n + d) constant.
   const double c = damping_, h = duration_s;
-  const double a = beta_tilde_ * (input_v + plant_torque(params_.effects, 0.0, theta_, theta_dot_,
-                                                         known));
+  const double a = beta_tilde_ * (input_v + plant_torque(torque_, 0.0, theta_, theta_dot_, known));
   const double ch = c * h;
   if (!(ch > 1e-12)) {  // C·h at rounding level: constant acceleration
     theta_ += h * theta_dot_ + 0.5 * a * h * h;
     theta_dot_ += a * h;
     return;
   }
-  const double decayed = -std::expm1(-ch);  // 1 − e^(−Ch)
   // rest = C·h − (1 − e^(−Ch)) = Σ_{k≥2} (−C·h)^k/k!: by its series where the difference would
-  // cancel (C·h < 1/4: the 14th term is below 1e-20 of the first), else directly.
-  double rest = 0.0;
+  // cancel (C·h < 1/4: the 14th term is below 1e-20 of the first; the sum stops once the next
+  // term is below 1e-17 of it, which bounds what the alternating tail adds), and then
+  // 1 − e^(−Ch) = C·h − rest (rest ≤ C·h/8: no cancellation, no expm1 per tick); else
+  // 1 − e^(−Ch) by expm1 and rest directly.
+  double decayed = 0.0, rest = 0.0;
   if (ch < 0.25) {
     double term = 0.5 * ch * ch;
     for (int k = 3; k <= 14; ++k) {
       rest += term;
       term *= -ch / k;
+      if (std::abs(term) < 1e-17 * rest) break;
     }
+    decayed = ch - rest;
   } else {
+    decayed = -std::expm1(-ch);
     rest = ch - decayed;
   }
   const double v_inf = a / c;  // the velocity the segment tends to
@@ -285,8 +304,8 @@ void VirtualOmni::command_path(double command_v, const KnownInputs& known, doubl
 
   // α of the received command, then C(α, I) and β̃(α, I) for this tick (eqs. (33), (38)-(42)).
   alpha_ = estimator_.update(v_eff_mean_).alpha;
-  damping_ = params_.alpha_model.damping(alpha_, inertia_);
-  beta_tilde_ = params_.alpha_model.beta_tilde(alpha_, inertia_);
+  damping_ = alpha_at_pose_.damping(alpha_);
+  beta_tilde_ = alpha_at_pose_.beta_tilde(alpha_);
 }
 
 void VirtualOmni::prime_commands(const double* commands_v, std::size_t n) noexcept {

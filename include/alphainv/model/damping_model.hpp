@@ -25,6 +25,27 @@ inline double interpolate_held(const double* x, const double* y, std::size_t n, 
   return y[k - 1] + w * (y[k] - y[k - 1]);
 }
 
+/// An AlphaModel's C(α) and β̃(α) at one inertia I (AlphaModel::at_inertia()), with its
+/// C_n(I) = 1/(C_n1·I) and β̃_n(I) = 1/(β̃_n1·I) computed once, for a loop at one pose (the
+/// virtual plant's tick): damping() and beta_tilde() equal AlphaModel::damping(α, I) and
+/// beta_tilde(α, I) bit for bit. Real-time safe.
+struct AlphaModelAtInertia {
+  std::size_t n_breakpoints = 0;                 ///< N
+  std::array<double, kMaxBreakpoints> alpha{};   ///< α0 < α1 < … [command unit²/s²]
+  std::array<double, kMaxBreakpoints> c{};       ///< C_n(I) [1/s], eq. (40)
+  std::array<double, 2> beta_alpha{{0.0, 1.0}};  ///< ᾱ0 < ᾱ1 of eq. (41)
+  std::array<double, 2> beta{{1.0, 1.0}};        ///< β̃_n(I), eq. (42)
+
+  /// C(α) [1/s], eqs. (38)-(40). Real-time safe.
+  double damping(double alpha_value) const noexcept {
+    return interpolate_held(alpha.data(), c.data(), n_breakpoints, alpha_value);
+  }
+  /// β̃(α) [rad/s² per command unit], eqs. (41)-(42). Real-time safe.
+  double beta_tilde(double alpha_value) const noexcept {
+    return interpolate_held(beta_alpha.data(), beta.data(), 2, alpha_value);
+  }
+};
+
 /// The α-invariant model of one joint.
 ///
 /// Damping (38)-(40): at breakpoint αn the damping is C_n(I) = 1/(C_n1·I); between breakpoints C is
@@ -44,15 +65,23 @@ struct AlphaModel {
 
   /// C(α, I) [1/s], eqs. (38)-(40). Real-time safe.
   double damping(double alpha_value, double inertia) const noexcept {
-    std::array<double, kMaxBreakpoints> c{};
-    for (std::size_t n = 0; n < n_breakpoints; ++n) c[n] = 1.0 / (c_n1[n] * inertia);
-    return interpolate_held(alpha.data(), c.data(), n_breakpoints, alpha_value);
+    return at_inertia(inertia).damping(alpha_value);
   }
 
   /// β̃(α, I) [rad/s² per command unit], eqs. (41)-(42). Real-time safe.
   double beta_tilde(double alpha_value, double inertia) const noexcept {
-    const double b[2] = {1.0 / (beta_n1[0] * inertia), 1.0 / (beta_n1[1] * inertia)};
-    return interpolate_held(beta_alpha.data(), b, 2, alpha_value);
+    return at_inertia(inertia).beta_tilde(alpha_value);
+  }
+
+  /// The model at inertia I: C_n(I) = 1/(C_n1·I), β̃_n(I) = 1/(β̃_n1·I). Real-time safe.
+  AlphaModelAtInertia at_inertia(double inertia) const noexcept {
+    AlphaModelAtInertia m;
+    m.n_breakpoints = n_breakpoints;
+    m.alpha = alpha;
+    for (std::size_t n = 0; n < n_breakpoints; ++n) m.c[n] = 1.0 / (c_n1[n] * inertia);
+    m.beta_alpha = beta_alpha;
+    m.beta = {1.0 / (beta_n1[0] * inertia), 1.0 / (beta_n1[1] * inertia)};
+    return m;
   }
 
   /// True when N is in range, breakpoints strictly increase and all C_n1, β̃_n1 are positive.

@@ -8,7 +8,8 @@
 /// estimator on the applied command (the plant of virtual_omni.hpp, without measurement effects;
 /// each tick stepped exactly where no effect depends on the state, by one RK4 step where the
 /// torque is a smooth function of θ, by the generator's 4 or more with friction:
-/// model_simulation_substeps()).
+/// model_simulation_substeps(); the torque n(θ, θ̇) by TorqueEffects, equal to effect_torque() to
+/// rounding: VirtualOmniParams::precomputed_torque).
 /// Not real-time (allocates the result); never throws on bad input: the result says.
 
 #include <cstddef>

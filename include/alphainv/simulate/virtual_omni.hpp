@@ -84,6 +84,11 @@ struct VirtualOmniParams {
   /// the linear plant instead of RK4 (file comment). Off by default, so that the generator's runs
   /// stay RK4 bit for bit; the model simulation (simulate.hpp) turns it on.
   bool exact_constant_segments = false;
+  /// Evaluate n(θ, θ̇) by TorqueEffects (torque_effects.hpp: the constants of effect_torque()
+  /// precomputed once; equal to it to rounding, not bit for bit) instead of effect_torque(). Off by
+  /// default, so that the generator's runs stay bit for bit; the model simulation (simulate.hpp)
+  /// turns it on.
+  bool precomputed_torque = false;
   double initial_theta_rad = 0.0;        ///< θ(0) [rad]
   double initial_theta_dot_rad_s = 0.0;  ///< θ̇(0) [rad/s]
   /// The command before the first tick [command unit]: fills the delay line and sets the α filter's
@@ -167,6 +172,9 @@ class VirtualOmni {
 
  private:
   void integrate(double t0_s, double duration_s, double input_v, const KnownInputs& known) noexcept;
+  template <class Torque>
+  void integrate_rk4(const Torque& torque, double t0_s, double duration_s, double input_v,
+                     const KnownInputs& known) noexcept;
   void command_path(double command_v, const KnownInputs& known, double& u_early,
                     double& u_late) noexcept;
   void integrate_exact(double duration_s, double input_v, const KnownInputs& known) noexcept;
@@ -175,7 +183,9 @@ class VirtualOmni {
 
   VirtualOmniParams params_;
   double inertia_ = 1.0;
+  AlphaModelAtInertia alpha_at_pose_;  ///< params_.alpha_model at inertia_ (bit for bit the same)
   bool exact_segments_ = false;  ///< exact_constant_segments and n free of the state
+  TorqueEffects torque_;  ///< params_.effects precomputed (used with precomputed_torque)
   rt::AlphaEstimator estimator_;
   std::vector<double> delay_line_;  ///< last delay_line_.size() commands, sized at construction
   std::size_t delay_head_ = 0;      ///< index of the newest command
