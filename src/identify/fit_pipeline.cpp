@@ -771,9 +771,8 @@ void describe_fit(DatasetFit& fit) {
                 (fit.alpha.ok ? ", the α-model (" + fit.alpha_source + ")" : ", no α-model");
 }
 
-DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
-                       const FitPipelineOptions& options) {
-  options.validate();
+DatasetFit fit_sine_stages(const Dataset& dataset, const std::vector<RunData>& data,
+                           const FitPipelineOptions& options) {
   DatasetFit fit;
   group_runs_by_pose(dataset, fit);
   fit_local_linear_points(dataset, data, options, fit);
@@ -781,6 +780,13 @@ DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
   fit_inertia_across_poses(options, fit);
   fit_alpha_invariant_model(options, fit);
   choose_model_simulation(data, options, fit);
+  return fit;
+}
+
+DatasetFit fit_dataset(const Dataset& dataset, const std::vector<RunData>& data,
+                       const FitPipelineOptions& options) {
+  options.validate();
+  DatasetFit fit = fit_sine_stages(dataset, data, options);
   remove_known_disturbance_response(dataset, data, options, fit);
   if (options.time_domain) fit_time_domain_poses(dataset, data, options, fit);
   if (options.run_validation) {

@@ -25,19 +25,6 @@ bool has_nonzero_disturbance(const RunData& run) {
   return d != nullptr && std::any_of(d->begin(), d->end(), [](double x) { return x != 0.0; });
 }
 
-/// Stages 1-6 on `data`, in fit_dataset()'s order.
-DatasetFit sine_stages(const Dataset& dataset, const std::vector<RunData>& data,
-                       const FitPipelineOptions& options) {
-  DatasetFit fit;
-  group_runs_by_pose(dataset, fit);
-  fit_local_linear_points(dataset, data, options, fit);
-  fit_global_linear_models(fit);
-  fit_inertia_across_poses(options, fit);
-  fit_alpha_invariant_model(options, fit);
-  choose_model_simulation(data, options, fit);
-  return fit;
-}
-
 /// Largest relative change of C_data or β_data between the physical points of the same runs in
 /// `before` and `after`; +inf when the runs or their physical flags differ.
 double point_change(const DatasetFit& before, const DatasetFit& after) {
@@ -171,7 +158,7 @@ void remove_known_disturbance_response(const Dataset& dataset, const std::vector
     if ((pass == 0 && std::isfinite(rms)) || rms < best_rms) best_rms = rms;
     if (!refit || ok_runs == 0) break;
     done.runs_corrected = ok_runs;
-    DatasetFit next = sine_stages(dataset, corrected, options);
+    DatasetFit next = fit_sine_stages(dataset, corrected, options);
     if (!next.usable()) break;
     done.last_point_change = point_change(current, next);
     done.passes = static_cast<int>(pass) + 1;

@@ -31,12 +31,15 @@ ReportScaling fine_scaling() {
 }
 
 /// θ of `ticks` ticks of a loop with `cfg` on a plant with `plant` parameters, the waveform
-/// started at tick 1 (relative to θ); r receives the references.
+/// started at tick 1 (relative to θ); r receives the references; `push` an external torque the
+/// virtual device applies.
 std::vector<double> run_loop(const ControlLoopConfig& cfg, const VirtualOmniParams& plant,
                              const Waveform& wave, int ticks, std::vector<double>* r = nullptr,
-                             std::vector<TickRecord>* records = nullptr) {
+                             std::vector<TickRecord>* records = nullptr,
+                             const SimPush* push = nullptr) {
   ControlLoop loop(cfg);
   SimTransport t(plant, cfg.scaling);
+  if (push != nullptr) t.device().set_push(*push);
   std::vector<double> theta;
   for (int k = 0; k < ticks; ++k) {
     const ReadResult in = t.read_latest();
@@ -470,26 +473,15 @@ TEST(CompensatedLoop, DampingCompensationLeavesTheFreeJointOneMinusKappaOfItsDam
   cfg.model = constant_alpha_model(20.0, 40.0);
   VirtualOmniParams plant;
   plant.alpha_model = cfg.model;
+  SimPush push;
+  push.kind = SimPush::Kind::kConstant;
+  push.level_v = 0.02;
   auto steady_speed = [&](double kappa) {
     ControlLoopConfig c = cfg;
     c.compensation.mode = CompensationMode::kEffects;
     c.compensation.damping_fraction = kappa;
-    ControlLoop loop(c);
-    SimTransport t(plant, c.scaling);
-    SimPush push;
-    push.kind = SimPush::Kind::kConstant;
-    push.level_v = 0.02;
-    t.device().set_push(push);
-    std::vector<double> theta;
-    for (int k = 0; k < 3000; ++k) {
-      const ReadResult in = t.read_latest();
-      OutputReport out;
-      const TickRecord rec = loop.tick(k * kT, in, false, out);
-      EXPECT_EQ(rec.fault, Fault::kNone);
-      EXPECT_EQ(t.write(out), IoStatus::kOk);
-      if (k == 0) loop.set_reference(Waveform{WaveKind::kHold, 0.0, 0.0, 0.0}, kT, true);
-      theta.push_back(rec.theta_rad);
-    }
+    const std::vector<double> theta = run_loop(c, plant, Waveform{WaveKind::kHold, 0.0, 0.0, 0.0},
+                                               3000, nullptr, nullptr, &push);
     return (theta[2999] - theta[1999]) / (1000 * kT);
   };
   const double free = steady_speed(0.0), half = steady_speed(0.5), most = steady_speed(0.75);

@@ -102,6 +102,11 @@ void choose_model_simulation(const std::vector<RunData>& data, const FitPipeline
 void remove_known_disturbance_response(const Dataset& dataset, const std::vector<RunData>& data,
                                        const FitPipelineOptions& options, DatasetFit& fit);
 
+/// Stages 1-6 in order on `data` (what stage 6a refits on the corrected runs), as fit_dataset()
+/// runs them.
+DatasetFit fit_sine_stages(const Dataset& dataset, const std::vector<RunData>& data,
+                           const FitPipelineOptions& options);
+
 /// Stage 7 (time_domain_fit.hpp): the linear model of every pose that has none yet (no sine runs,
 /// and no inertia model to predict it) by output error on the pose's runs under their own
 /// controllers, and the α-model of a single-pose dataset when stage 5 gave none, with the runs'
