@@ -1147,6 +1147,14 @@ std::string inactive_reason(const CandidateScore& c, double largest_abs_v) {
     return "saturation level " + num(e.saturation_v) + " V above the largest |v| " +
            num(largest_abs_v) + " V: never reached";
   }
+  // Stribeck friction is a breakaway hump, Fs > Fc (eq. of effects.hpp's stribeck_friction). A fit
+  // with Fs <= Fc is friction that is lower at low speed: not Stribeck's form, however well it
+  // fits (a plant's softer start than the model's tanh, part of the friction in the α-model's
+  // damping); naming it would be the nearest-name error in the other direction.
+  if (c.effect == EffectKind::kStribeckFriction && e.stribeck_breakaway_v <= e.stribeck_coulomb_v) {
+    return "breakaway level Fs " + num(e.stribeck_breakaway_v) + " V not above the Coulomb level Fc " +
+           num(e.stribeck_coulomb_v) + " V: no breakaway hump, not Stribeck friction";
+  }
   // The effects whose first parameter is a level in command units: too small to move θ.
   struct Level {
     EffectKind kind;
@@ -1173,7 +1181,7 @@ bool set_aside_if_inactive(CandidateScore& c, double largest_abs_v) {
   if (why.empty()) return false;
   c.inactive = why;
   c.cross_validated = false;
-  c.message = "set aside, inactive on the data: " + why;
+  c.message = "set aside: " + why;
   return true;
 }
 

@@ -312,7 +312,8 @@ double largest_abs_command_v(const PreparedRuns& prepared);
 /// Why the fitted candidate `c` does not move the simulated θ on runs whose largest |v| is
 /// `largest_abs_v` (it is `none` in disguise): a saturation level at or above largest_abs_v
 /// ("never reached"), or a deadzone half-width, gravity, offset, Coulomb or cogging amplitude
-/// below kInactiveRelativeLevel × largest_abs_v. Empty when it is active (and for `none`).
+/// below kInactiveRelativeLevel × largest_abs_v. Also a Stribeck friction fitted without its
+/// breakaway hump (Fs <= Fc): not the form it names. Empty when it is active (and for `none`).
 std::string inactive_reason(const CandidateScore& c, double largest_abs_v);
 
 /// Sets `c` aside when inactive_reason() is non-empty: c.inactive = the reason, not

@@ -370,6 +370,49 @@ TEST(DiagnoseStages, ChooseSetsAsideAnEffectInactiveOnTheData) {
             "gravity amplitude 0.0002 V below 0.001 × the largest |v| 0.5 V: no effect on θ");
 }
 
+TEST(DiagnoseStages, ChooseSetsAsideAStribeckFrictionWithoutItsBreakawayHump) {
+  const RunData a = sine_data(2.0, 0.5);
+  const std::vector<DiagnoseRun> runs = {run_of(a, "a", 2.0)};
+  DiagnoseOptions opt;
+  opt.simulation.loop_period_s = 0.001;
+  const PreparedRuns p = prepare_runs(runs, opt);
+  const RoundModel m = initial_model(runs, p);
+  const CandidateFitter fitter(runs, p, m, opt);
+  const std::vector<DiagnoseRun> no_runs;
+  const Reidentifier reid(no_runs, 0.0);
+  const double largest_v = largest_abs_command_v(p);
+
+  // Stribeck 15 % better than Coulomb (beyond the 5 % parsimony band), but fitted with the
+  // breakaway below the sliding level (the bundled data's case: Fs 0.0052, Fc 0.0082 V): friction
+  // that falls at low speed is not Stribeck's form. It is set aside and Coulomb friction wins.
+  DiagnoseRound rd;
+  rd.candidates = {scored(EffectKind::kNone, 1.0), scored(EffectKind::kCoulombFriction, 0.60),
+                   scored(EffectKind::kStribeckFriction, 0.51)};
+  rd.candidates[2].effects.stribeck_coulomb_v = 0.0082;
+  rd.candidates[2].effects.stribeck_breakaway_v = 0.0052;
+  EXPECT_EQ(inactive_reason(rd.candidates[2], largest_v),
+            "breakaway level Fs 0.0052 V not above the Coulomb level Fc 0.0082 V: no breakaway "
+            "hump, not Stribeck friction");
+  Choice ch = choose_winner(fitter, reid, rd);
+  ASSERT_TRUE(ch.winner.has_value());
+  EXPECT_EQ(rd.candidates[*ch.winner].effect, EffectKind::kCoulombFriction);
+  EXPECT_TRUE(ch.named);
+  EXPECT_FALSE(rd.candidates[2].cross_validated);
+  EXPECT_EQ(rd.candidates[2].message.rfind("set aside: breakaway level", 0), 0u)
+      << rd.candidates[2].message;
+
+  // With its hump (Fs 2.5 × Fc) the same scores name Stribeck friction.
+  DiagnoseRound hump;
+  hump.candidates = {scored(EffectKind::kNone, 1.0), scored(EffectKind::kCoulombFriction, 0.60),
+                     scored(EffectKind::kStribeckFriction, 0.51)};
+  hump.candidates[2].effects.stribeck_coulomb_v = 0.01;
+  hump.candidates[2].effects.stribeck_breakaway_v = 0.025;
+  EXPECT_EQ(inactive_reason(hump.candidates[2], largest_v), "");
+  ch = choose_winner(fitter, reid, hump);
+  ASSERT_TRUE(ch.winner.has_value());
+  EXPECT_EQ(hump.candidates[*ch.winner].effect, EffectKind::kStribeckFriction);
+}
+
 /// The sweep's one-pose dataset (seed 6) with omni_gen's ±0.05 V pulses (0.1 s every 1 s), its
 /// disturbance_v column kept (`recorded`) or left out.
 struct PulseCase {

@@ -134,7 +134,8 @@ struct CandidateScore {
   /// it); nullopt: the runs' own.
   std::optional<AlphaModel> alpha;
   /// Non-empty: set aside as inactive on the data, with the reason (its fitted effect does not
-  /// move the simulated θ: `none` in disguise, e.g. a saturation level above the largest |v|).
+  /// move the simulated θ: `none` in disguise, e.g. a saturation level above the largest |v|; or
+  /// its fitted parameters contradict the form it names: a Stribeck friction with Fs <= Fc).
   /// An inactive candidate is not cross-validated, cannot win and is not preferred by parsimony.
   std::string inactive;
 };
