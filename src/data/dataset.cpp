@@ -32,8 +32,8 @@ using json = nlohmann::ordered_json;
 
 constexpr std::array<std::string_view, 4> kRequiredColumns = {"t", "r", "theta", "v"};
 /// Optional columns the format names: read strictly, like the required ones.
-constexpr std::array<std::string_view, 4> kKnownOptionalColumns = {
-    "gamma1", "gamma2", "disturbance_v", "torque_enable"};
+constexpr std::array<std::string_view, 5> kKnownOptionalColumns = {
+    "gamma1", "gamma2", "disturbance_v", "torque_enable", "v_comp"};
 constexpr std::array<std::string_view, 5> kRunKinds = {"sine", "square", "step", "chirp", "other"};
 constexpr std::array<std::string_view, 5> kControllerKeys = {"kp", "ki", "kd", "derivative_on",
                                                              "v_limit"};

@@ -9,8 +9,12 @@ namespace alphainv {
 
 KnownInputSeries::KnownInputSeries(const std::vector<double>* t_s,
                                    const std::vector<double>* disturbance_v,
-                                   const std::vector<double>* torque_enable)
-    : t_(t_s), disturbance_v_(disturbance_v), torque_enable_(torque_enable) {
+                                   const std::vector<double>* torque_enable,
+                                   const std::vector<double>* command_offset_v)
+    : t_(t_s),
+      disturbance_v_(disturbance_v),
+      torque_enable_(torque_enable),
+      command_offset_v_(command_offset_v) {
   const std::size_t n = t_ != nullptr ? t_->size() : 0;
   auto check = [n](const std::vector<double>* col, const char* field) {
     if (col != nullptr && col->size() != n) {
@@ -21,11 +25,13 @@ KnownInputSeries::KnownInputSeries(const std::vector<double>* t_s,
   };
   check(disturbance_v_, "disturbance_v");
   check(torque_enable_, "torque_enable");
-  if (n == 0) disturbance_v_ = torque_enable_ = nullptr;
+  check(command_offset_v_, "v_comp");
+  if (n == 0) disturbance_v_ = torque_enable_ = command_offset_v_ = nullptr;
 }
 
 KnownInputSeries KnownInputSeries::of_run(const RunData& run) {
-  return KnownInputSeries(&run.t, run.column("disturbance_v"), run.column("torque_enable"));
+  return KnownInputSeries(&run.t, run.column("disturbance_v"), run.column("torque_enable"),
+                          run.column("v_comp"));
 }
 
 bool KnownInputSeries::has_torque_off() const noexcept {
@@ -40,6 +46,7 @@ KnownInputs KnownInputSeries::at_sample(std::size_t k) const noexcept {
   k = std::min(k, t_->size() - 1);
   if (disturbance_v_ != nullptr) in.disturbance_v = (*disturbance_v_)[k];
   if (torque_enable_ != nullptr) in.torque_enabled = (*torque_enable_)[k] > 0.5;
+  if (command_offset_v_ != nullptr) in.command_offset_v = (*command_offset_v_)[k];
   return in;
 }
 

@@ -157,15 +157,17 @@ ModelRun simulate_model_run(const ModelFile& model, const JointModelAtPose& join
   d.extra_columns["C"] = s.damping;
   d.extra_columns["beta_tilde"] = s.beta_tilde;
   d.extra_columns["theta_dot"] = s.theta_dot;
-  if (known.has_disturbance() || known.has_torque_enable()) {
-    std::vector<double> dist, enable;
+  if (!known.empty()) {
+    std::vector<double> dist, enable, offset;
     for (double t : s.t) {
       const KnownInputs k = known.at(t);
       dist.push_back(k.disturbance_v);
       enable.push_back(k.torque_enabled ? 1.0 : 0.0);
+      offset.push_back(k.command_offset_v);
     }
     if (known.has_disturbance()) d.extra_columns["disturbance_v"] = std::move(dist);
     if (known.has_torque_enable()) d.extra_columns["torque_enable"] = std::move(enable);
+    if (known.has_command_offset()) d.extra_columns["v_comp"] = std::move(offset);
   }
   for (const auto& [name, col] : d.extra_columns) {
     for (double x : col) {

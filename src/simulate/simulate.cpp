@@ -74,12 +74,16 @@ class ClosedLoop {
     const double e = ref.r - theta;
     const bool d_on_err = ctl_.derivative_on == DerivativeOn::kError;
     const double d = d_on_err ? ref.r_dot - phi : -phi;
-    const double v_raw = open_loop_ ? ref.r : ctl_.kp * e + ctl_.ki * z + ctl_.kd * d;
+    // A known addition c(t) to the command (a compensated run's v_comp, KnownInputs) is the
+    // controller's: before the clamp.
+    const double v_raw = open_loop_ ? ref.r
+                                    : ctl_.kp * e + ctl_.ki * z + ctl_.kd * d + known.command_offset_v;
     const double v = open_loop_ ? v_raw : ctl_.clamp(v_raw);
     const bool saturated = v != v_raw;
     // v̇ and v̈ as functions of the unknown Φ̇ (eq. (44)); in open loop those of the recorded
     // command. The kd contribution to v̈ needs r⃛ and Φ̈, which the scheme does not carry; it is
-    // dropped (exact for kd = 0, the paper's case).
+    // dropped (exact for kd = 0, the paper's case). So is c(t)'s, held between its samples (the
+    // digital loop, which recordings on the loop grid use, has its α from the whole command).
     auto v_dot_of = [&](double phi_dot) {
       if (open_loop_) return ref.r_dot;
       if (saturated) return 0.0;
@@ -345,7 +349,9 @@ void simulate_digital(const JointModelAtPose& model, const Controller& ctl, bool
   p.initial_command_v =
       !init.command_history.empty()
           ? init.command_history.front()
-          : (open_loop ? r0.r : ctl.clamp(ctl.kp * (r0.r - init.theta) + ctl.ki * init.integral));
+          : (open_loop ? r0.r
+                       : ctl.clamp(ctl.kp * (r0.r - init.theta) + ctl.ki * init.integral +
+                                   known.at(t0).command_offset_v));
   p.effects = model.effects;
   p.exact_constant_segments = true;  // the exact segment where n is free of the state
   p.precomputed_torque = true;       // n by TorqueEffects (equal to effect_torque to rounding)
@@ -382,13 +388,15 @@ void simulate_digital(const JointModelAtPose& model, const Controller& ctl, bool
     double d = 0.0;
     if (k > 0) d = ctl.derivative_on == DerivativeOn::kError ? (e - e_prev) / T
                                                              : -(theta - theta_prev) / T;
-    const double v =
-        open_loop ? ref.at(t).r : ctl.clamp(ctl.kp * e + ctl.ki * integral + ctl.kd * d);
+    const KnownInputs in = known.at(t);
+    const double v = open_loop ? ref.at(t).r
+                               : ctl.clamp(ctl.kp * e + ctl.ki * integral + ctl.kd * d +
+                                           in.command_offset_v);  // c(t): before the clamp
     tk[k] = t;
     th[k] = theta;
     thd[k] = omni->theta_dot();
     vk[k] = v;
-    omni->step(v, known.at(t));
+    omni->step(v, in);
     ak[k] = omni->alpha();
     ck[k] = omni->damping();
     bk[k] = omni->beta_tilde();

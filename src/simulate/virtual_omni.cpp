@@ -373,6 +373,11 @@ RunData run_closed_loop(VirtualOmni& omni, const Controller& controller, const R
     enable = &out.extra_columns["torque_enable"];
     enable->resize(n);
   }
+  std::vector<double>* comp = nullptr;
+  if (options.command_offset_v) {
+    comp = &out.extra_columns["v_comp"];
+    comp->resize(n);
+  }
 
   double integral = 0.0, e_prev = 0.0, theta_prev = 0.0;
   for (std::size_t k = 0; k < n; ++k) {
@@ -386,8 +391,12 @@ RunData run_closed_loop(VirtualOmni& omni, const Controller& controller, const R
       d = controller.derivative_on == DerivativeOn::kError ? (e - e_prev) / T
                                                            : -(theta - theta_prev) / T;
     }
-    const double v = controller.clamp(controller.kp * e + controller.ki * integral +
-                                      controller.kd * d);  // eq. (10)
+    double pid = controller.kp * e + controller.ki * integral + controller.kd * d;  // eq. (10)
+    if (comp != nullptr) {  // + a compensation (not added when there is none: bit for bit)
+      (*comp)[k] = options.command_offset_v(t, theta);
+      pid += (*comp)[k];
+    }
+    const double v = controller.clamp(pid);
     e_prev = e;
     theta_prev = theta;
     out.t[k] = t;

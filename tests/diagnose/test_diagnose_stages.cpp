@@ -259,17 +259,30 @@ CandidateScore scored(EffectKind kind, double s) {
   return c;
 }
 
+/// What choose_winner() needs besides the candidates: one run with v = 0.5·sin(2π·t) (the
+/// largest |v| is 0.5 V), the 1 ms loop, no re-identification.
+struct ChooseSetup {
+  DiagnoseOptions opt = [] {
+    DiagnoseOptions o;
+    o.simulation.loop_period_s = 0.001;
+    return o;
+  }();
+  RunData a = sine_data(2.0, 0.5);
+  std::vector<DiagnoseRun> runs = {run_of(a, "a", 2.0)};
+  PreparedRuns p = prepare_runs(runs, opt);
+  RoundModel m = initial_model(runs, p);
+  CandidateFitter fitter{runs, p, m, opt};
+  std::vector<DiagnoseRun> no_runs;
+  Reidentifier reid{no_runs, 0.0};
+};
+
 TEST(DiagnoseStages, ChooseTakesTheSimplerWithinFivePercentAndRefusesASubTickDelay) {
   // Hand-built candidates without α-models: choose_winner() fits nothing then.
-  const RunData a = sine_data(2.0, 0.5);
-  const std::vector<DiagnoseRun> runs = {run_of(a, "a", 2.0)};
-  DiagnoseOptions opt;
-  opt.simulation.loop_period_s = 0.001;
-  const PreparedRuns p = prepare_runs(runs, opt);
-  const RoundModel m = initial_model(runs, p);
-  const CandidateFitter fitter(runs, p, m, opt);
-  const std::vector<DiagnoseRun> no_runs;
-  const Reidentifier reid(no_runs, 0.0);
+  const ChooseSetup setup;
+  [[maybe_unused]] const DiagnoseOptions& opt = setup.opt;
+  const CandidateFitter& fitter = setup.fitter;
+  const Reidentifier& reid = setup.reid;
+  [[maybe_unused]] const PreparedRuns& p = setup.p;
 
   DiagnoseRound rd;
   rd.candidates = {scored(EffectKind::kNone, 1.0), scored(EffectKind::kGravity, 0.50),
@@ -310,15 +323,11 @@ TEST(DiagnoseStages, ChooseTakesTheSimplerWithinFivePercentAndRefusesASubTickDel
 
 TEST(DiagnoseStages, ChooseSetsAsideAnEffectInactiveOnTheData) {
   // Runs with v = 0.5·sin(2π·t): the largest |v| is 0.5 V.
-  const RunData a = sine_data(2.0, 0.5);
-  const std::vector<DiagnoseRun> runs = {run_of(a, "a", 2.0)};
-  DiagnoseOptions opt;
-  opt.simulation.loop_period_s = 0.001;
-  const PreparedRuns p = prepare_runs(runs, opt);
-  const RoundModel m = initial_model(runs, p);
-  const CandidateFitter fitter(runs, p, m, opt);
-  const std::vector<DiagnoseRun> no_runs;
-  const Reidentifier reid(no_runs, 0.0);
+  const ChooseSetup setup;
+  [[maybe_unused]] const DiagnoseOptions& opt = setup.opt;
+  const CandidateFitter& fitter = setup.fitter;
+  const Reidentifier& reid = setup.reid;
+  [[maybe_unused]] const PreparedRuns& p = setup.p;
   const double largest_v = largest_abs_command_v(p);
   EXPECT_NEAR(largest_v, 0.5, 1e-12);
 
@@ -371,15 +380,11 @@ TEST(DiagnoseStages, ChooseSetsAsideAnEffectInactiveOnTheData) {
 }
 
 TEST(DiagnoseStages, ChooseSetsAsideAStribeckFrictionWithoutItsBreakawayHump) {
-  const RunData a = sine_data(2.0, 0.5);
-  const std::vector<DiagnoseRun> runs = {run_of(a, "a", 2.0)};
-  DiagnoseOptions opt;
-  opt.simulation.loop_period_s = 0.001;
-  const PreparedRuns p = prepare_runs(runs, opt);
-  const RoundModel m = initial_model(runs, p);
-  const CandidateFitter fitter(runs, p, m, opt);
-  const std::vector<DiagnoseRun> no_runs;
-  const Reidentifier reid(no_runs, 0.0);
+  const ChooseSetup setup;
+  [[maybe_unused]] const DiagnoseOptions& opt = setup.opt;
+  const CandidateFitter& fitter = setup.fitter;
+  const Reidentifier& reid = setup.reid;
+  [[maybe_unused]] const PreparedRuns& p = setup.p;
   const double largest_v = largest_abs_command_v(p);
 
   // Stribeck 15 % better than Coulomb (beyond the 5 % parsimony band), but fitted with the

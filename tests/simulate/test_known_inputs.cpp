@@ -1,5 +1,5 @@
-// Tests of include/alphainv/simulate/known_inputs.hpp: a run's disturbance_v and torque_enable
-// columns held between samples, and what a column of the wrong length says.
+// Tests of include/alphainv/simulate/known_inputs.hpp: a run's disturbance_v, torque_enable and
+// v_comp columns held between samples, and what a column of the wrong length says.
 #include "alphainv/simulate/known_inputs.hpp"
 
 #include <string>
@@ -45,6 +45,29 @@ TEST(KnownInputs, ColumnsAreHeldFromOneSampleToTheNext) {
   EXPECT_EQ(k.at(-1.0).disturbance_v, 0.0);  // before the first sample: the first's
   EXPECT_EQ(k.at(9.0).disturbance_v, 0.0);   // after the last: the last's
   EXPECT_EQ(k.at_sample(99).disturbance_v, 0.0);
+  EXPECT_FALSE(k.has_command_offset());
+  EXPECT_EQ(k.at(0.15).command_offset_v, 0.0);
+}
+
+TEST(KnownInputs, ACompensatedRunsVCompIsAKnownCommandOffset) {
+  RunData d = run_with(false, false);
+  d.extra_columns["v_comp"] = {0.01, -0.02, 0.03, 0.0};
+  const KnownInputSeries k = KnownInputSeries::of_run(d);
+  ASSERT_FALSE(k.empty());
+  EXPECT_TRUE(k.has_command_offset());
+  EXPECT_FALSE(k.has_disturbance());
+  EXPECT_EQ(k.at(0.05).command_offset_v, 0.01);
+  EXPECT_EQ(k.at(0.1999).command_offset_v, -0.02);
+  EXPECT_EQ(k.at(0.2).command_offset_v, 0.03);
+  EXPECT_EQ(k.at(0.2).disturbance_v, 0.0);  // a command, not a torque on the joint
+  EXPECT_TRUE(k.at(0.2).torque_enabled);
+  d.extra_columns["v_comp"].push_back(1.0);
+  try {
+    (void)KnownInputSeries::of_run(d);
+    FAIL() << "no throw";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.field(), "v_comp");
+  }
 }
 
 TEST(KnownInputs, AColumnOfTheWrongLengthNamesIt) {

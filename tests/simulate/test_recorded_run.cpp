@@ -28,6 +28,18 @@ struct PlantRun {
   JointModelAtPose model;
 };
 
+/// The plant's own model (its α-model, inertia and effects) at the pose of `omni`.
+JointModelAtPose own_model(const VirtualOmniParams& params, const VirtualOmni& omni) {
+  JointModelAtPose m;
+  m.use_alpha = true;
+  m.inertia = omni.inertia();
+  m.alpha = params.alpha_model;
+  m.c_linear = params.alpha_model.damping(0.0, m.inertia);
+  m.beta_tilde_linear = params.alpha_model.beta_tilde(0.0, m.inertia);
+  m.effects = params.effects;
+  return m;
+}
+
 /// A 4 s run at 2 Hz of the plant (paper models, Coulomb friction), noise-free, with ±`pulse_v`
 /// pulses of 0.1 s every 0.7 s and, when `motor_off`, the motor off in [2.0, 2.3) s.
 PlantRun plant_run(double pulse_v, bool motor_off) {
@@ -43,32 +55,66 @@ PlantRun plant_run(double pulse_v, bool motor_off) {
   if (motor_off) o.torque_enable = [](double t) { return !(t >= 2.0 && t < 2.3); };
   const SineReference ref(0.07, 2.0);
   p.data = run_closed_loop(omni, p.controller, ref, 4.0, o);
-  p.model.use_alpha = true;
-  p.model.inertia = omni.inertia();
-  p.model.alpha = p.params.alpha_model;
-  p.model.c_linear = p.params.alpha_model.damping(0.0, p.model.inertia);
-  p.model.beta_tilde_linear = p.params.alpha_model.beta_tilde(0.0, p.model.inertia);
-  p.model.effects = p.params.effects;
+  p.model = own_model(p.params, omni);
   return p;
 }
 
-TEST(RecordedRun, WithItsKnownInputsTheDigitalLoopIsTheRun) {
-  const PlantRun p = plant_run(0.05, true);
-  ASSERT_NE(p.data.column("disturbance_v"), nullptr);
-  ASSERT_NE(p.data.column("torque_enable"), nullptr);
+/// Simulates `p`'s run back as the digital loop from rest, with its recorded known inputs and
+/// without them: with them it is the run to rounding; without them it is at least
+/// `min_gap_without_rad` (RMS) away.
+void expect_known_inputs_reproduce_the_run(const PlantRun& p, double min_gap_without_rad) {
   SimulationOptions so;
   so.loop_period_s = p.params.tick_period_s;
   const InitialState x0(p.data.theta[0], 0.0);  // the plant starts at rest
   const SimulationResult with = simulate_recorded_run(p.model, p.controller, p.data, x0, so);
   ASSERT_TRUE(with.ok) << with.message;
   ASSERT_EQ(with.theta.size(), p.data.size());
-  // The same plant, controller, reference and inputs: equal to rounding.
   EXPECT_LT(rms_difference(with.theta, p.data.theta), 1e-12);
   EXPECT_LT(rms_difference(with.v, p.data.v), 1e-10);
   const SimulationResult without =
       simulate_recorded_run(p.model, p.controller, p.data, x0, so, KnownInputUse::kIgnore);
   ASSERT_TRUE(without.ok) << without.message;
-  EXPECT_GT(rms_difference(without.theta, p.data.theta), 1e-3);  // pulses of 0.05 V are visible
+  EXPECT_GT(rms_difference(without.theta, p.data.theta), min_gap_without_rad);
+}
+
+TEST(RecordedRun, WithItsKnownInputsTheDigitalLoopIsTheRun) {
+  const PlantRun p = plant_run(0.05, true);
+  ASSERT_NE(p.data.column("disturbance_v"), nullptr);
+  ASSERT_NE(p.data.column("torque_enable"), nullptr);
+  // The same plant, controller, reference and inputs: equal to rounding; without them the
+  // pulses of 0.05 V are visible.
+  expect_known_inputs_reproduce_the_run(p, 1e-3);
+}
+
+TEST(RecordedRun, ACompensatedRunIsSimulatedWithItsRecordedCompensation) {
+  // The plant's Coulomb friction (0.004 V) and an offset (0.01 V), compensated as omni_ctl
+  // --compensate does, from the measured angle: c_k = 0.004·tanh(θ̇_k/0.01) − 0.01 with θ̇_k
+  // the measured angle's backward difference. The run records c as `v_comp`.
+  PlantRun p;
+  p.params.effects.coulomb_v = 0.004;
+  p.params.effects.offset_v = 0.01;
+  // The simulation takes the command history before t0 to be the first command (kp·0 + c_0 =
+  // −0.01 V here, the plant at rest on the sine's start): the plant held it too.
+  p.params.initial_command_v = -0.01;
+  VirtualOmni omni(p.params);
+  ClosedLoopOptions o;
+  double theta_prev = 0.0;
+  bool first = true;
+  o.command_offset_v = [&](double, double theta) {
+    const double w = first ? 0.0 : (theta - theta_prev) / p.params.tick_period_s;
+    first = false;
+    theta_prev = theta;
+    return 0.004 * std::tanh(w / 0.01) - 0.01;
+  };
+  p.data = run_closed_loop(omni, p.controller, SineReference(0.07, 2.0), 4.0, o);
+  const std::vector<double>* comp = p.data.column("v_comp");
+  ASSERT_NE(comp, nullptr);
+  EXPECT_GT(*std::max_element(comp->begin(), comp->end()), -0.0065);
+  EXPECT_LT(*std::min_element(comp->begin(), comp->end()), -0.0135);
+  p.model = own_model(p.params, omni);
+  // The plant's own model under the recorded command clamp(kp·e + c): the run, to rounding;
+  // without it the P law alone meets the uncompensated offset and friction.
+  expect_known_inputs_reproduce_the_run(p, 2e-3);
 }
 
 TEST(RecordedRun, TheContinuousSimulatorHoldsTheKnownInputsOverEachSample) {
@@ -95,16 +141,7 @@ TEST(RecordedRun, TheContinuousSimulatorHoldsTheKnownInputsOverEachSample) {
 }
 
 TEST(RecordedRun, AMotorSwitchedOffIsFreeMotion) {
-  const PlantRun p = plant_run(0.0, true);
-  SimulationOptions so;
-  so.loop_period_s = p.params.tick_period_s;
-  const InitialState x0(p.data.theta[0], 0.0);
-  const SimulationResult with = simulate_recorded_run(p.model, p.controller, p.data, x0, so);
-  ASSERT_TRUE(with.ok) << with.message;
-  EXPECT_LT(rms_difference(with.theta, p.data.theta), 1e-12);
-  const SimulationResult without =
-      simulate_recorded_run(p.model, p.controller, p.data, x0, so, KnownInputUse::kIgnore);
-  EXPECT_GT(rms_difference(without.theta, p.data.theta), 1e-3);
+  expect_known_inputs_reproduce_the_run(plant_run(0.0, true), 1e-3);
 }
 
 TEST(RecordedRun, AnOpenLoopRunIsDrivenByItsRecordedCommand) {

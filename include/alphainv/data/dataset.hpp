@@ -52,7 +52,7 @@ struct RunData {
   std::vector<double> theta;  ///< measured position [position unit]
   std::vector<double> v;      ///< command sent by the controller [command unit]
   /// Every other numeric column by header name, e.g. "gamma1", "gamma2" [rad], "disturbance_v"
-  /// [command unit], "torque_enable" [0/1].
+  /// [command unit], "torque_enable" [0/1], "v_comp" [command unit].
   std::map<std::string, std::vector<double>> extra_columns;
   /// Unknown columns that were not read because a cell was not a finite number (the format says
   /// unknown columns are ignored). Never written.

@@ -26,6 +26,10 @@ namespace alphainv {
 struct KnownInputs {
   double disturbance_v = 0.0;  ///< d(t): a known external torque [command unit]
   bool torque_enabled = true;  ///< e(t): false while the motor is switched off (free motion)
+  /// c(t): a known addition to the controller's command, before its clamp [command unit] (a run's
+  /// `v_comp` column: omni_ctl's model-based compensation). Not part of u: the controller adds it
+  /// (simulate.hpp's loops: v = clamp(PID + c)), so it passes the delay, deadzone and saturation.
+  double command_offset_v = 0.0;
 };
 
 /// e(t)·S(Z(v(t − τ))) [command unit]: the part of u that comes through the amplifier, from the

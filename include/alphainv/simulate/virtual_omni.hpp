@@ -218,6 +218,10 @@ struct ClosedLoopOptions {
   /// no model knows (invented_effects.hpp). May keep state (called once per tick, in order).
   /// Empty: none.
   std::function<double(double t_s, double theta, double theta_dot)> hidden_torque_v;
+  /// A compensation c_k [command unit] added to the PID's command before the clamp, as omni_ctl
+  /// --compensate adds its model's (v_k = clamp(PID_k + c_k)), from the tick's time and measured
+  /// θ_k; recorded as the `v_comp` column (a known input of simulate.hpp's loops). Empty: none.
+  std::function<double(double t_s, double theta_measured)> command_offset_v;
 };
 
 /// Runs `omni` from its current state under a DIGITAL PID at its tick period T for `duration_s`:
@@ -226,7 +230,7 @@ struct ClosedLoopOptions {
 /// measurement), computes
 ///     e_k = r_k − θ_k,  I_k = I_{k−1} + T·e_k (rectangle rule),
 ///     D_k = (e_k − e_{k−1})/T  or  −(θ_k − θ_{k−1})/T  (backward difference; D_0 = 0),
-///     v_k = clamp(kp·e_k + ki·I_k + kd·D_k, ±v_limit)       (eq. (10), no anti-windup),
+///     v_k = clamp(kp·e_k + ki·I_k + kd·D_k [+ c_k], ±v_limit) (eq. (10), no anti-windup),
 /// records (t_k, r_k, θ_k, v_k) and steps the plant with v_k held over [t_k, t_k + T).
 /// Returns the run in the interchange layout (RunData: t, r, theta = measured, v, plus the optional
 /// columns). Not real-time (allocates the result); throws alphainv::Error for duration_s ≤ 0.
