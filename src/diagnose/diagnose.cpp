@@ -1605,15 +1605,22 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
     }
   }
   // --- the discovered term (discovered_term.hpp): when structure remains after the named
-  // effects, a sparse term for the rest, fitted on the fit windows, judged on all runs ---------
+  // effects, a sparse term for the rest, fitted on the fit runs, judged on all runs ---------
   if (opt.discover && res.termination != DiagnoseTermination::kFailure &&
       res.termination != DiagnoseTermination::kExplained) {
     const auto sims = simulate_diagnosed(runs_in, model.effects, model.scales, opt.simulation,
                                          opt.threads, model.alpha);
     if (judge_residual(residual_series(runs_in, sims), res.noise_floor).verdict ==
         ResidualVerdict::kStructureRemains) {
-      std::vector<DiagnoseRun> windows;
-      for (std::size_t i : prepared.fit_runs) windows.push_back(prepared.runs[i]);
+      // Regressed on the fit windows, refined by output error on the whole fit runs: refined on
+      // the windows' steady state the term made the error over all runs worse on every invented
+      // effect (docs/diagnose.md); regressed on the whole runs, n̂'s start transients hid a
+      // friction from the cross-validation.
+      std::vector<DiagnoseRun> windows, whole;
+      for (std::size_t i : prepared.fit_runs) {
+        windows.push_back(prepared.runs[i]);
+        whole.push_back(runs_in[i]);
+      }
       DiscoveredTermOptions dopt;
       dopt.significance = opt.significance;
       dopt.threads = opt.threads;
@@ -1622,7 +1629,7 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
       DiscoveredBase base{model.effects, model.scales, model.alpha, {}};
       if (reid.usable()) base.reidentify = [&reid](const Effects& e) { return reid.fit(e); };
       auto found = std::make_shared<DiscoveredTermResult>(
-          discover_term(windows, runs_in, base, dopt, res.noise_floor.rms));
+          discover_term(windows, runs_in, base, dopt, res.noise_floor.rms, whole));
       if (found->ok && found->kept) {
         model.effects = found->effects;
         model.scales = found->scales;

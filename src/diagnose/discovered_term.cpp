@@ -417,7 +417,10 @@ double error_over(const std::vector<DiagnoseRun>& runs, const Effects& e, const 
 DiscoveredTermResult discover_term(const std::vector<DiagnoseRun>& fit_runs,
                                    const std::vector<DiagnoseRun>& all_runs,
                                    const DiscoveredBase& base, const DiscoveredTermOptions& opt,
-                                   double noise_floor) {
+                                   double noise_floor,
+                                   const std::vector<DiagnoseRun>& output_error_runs) {
+  // (the output-error fit's runs: output_error_runs, or fit_runs when empty)
+  const std::vector<DiagnoseRun>& oe_runs = output_error_runs.empty() ? fit_runs : output_error_runs;
   const auto t0 = std::chrono::steady_clock::now();
   DiscoveredTermResult res;
   res.effects = base.effects;
@@ -531,7 +534,7 @@ DiscoveredTermResult discover_term(const std::vector<DiagnoseRun>& fit_runs,
     const Effects start = term_of(reg);
     const Support s = reg.chosen.terms;
     OutputErrorProblem pr;
-    for (const DiagnoseRun& r : fit_runs) pr.runs.push_back({r.data, r.controller, 1.0, r.command_history});
+    for (const DiagnoseRun& r : oe_runs) pr.runs.push_back({r.data, r.controller, 1.0, r.command_history});
     const std::size_t nc = start_scales.c.size(), nb = start_scales.beta.size();
     for (std::size_t k = 0; k < nc; ++k)
       pr.parameters.push_back({"c_scale_" + std::to_string(k), start_scales.c[k], 0.2, 5.0});
@@ -544,7 +547,7 @@ DiscoveredTermResult discover_term(const std::vector<DiagnoseRun>& fit_runs,
     }
     pr.simulation = opt.simulation;
     pr.max_residuals_per_run = opt.max_residuals_per_run;
-    const std::vector<DiagnoseRun>* runs_ptr = &fit_runs;
+    const std::vector<DiagnoseRun>* runs_ptr = &oe_runs;
     auto apply = [nc, nb, s](const double* p, Effects& ef, ModelScales& ms) {
       ms.c.assign(p, p + nc);
       ms.beta.assign(p + nc, p + nc + nb);

@@ -173,12 +173,15 @@ struct DiscoveredBase {
 };
 
 /// Discovers a term (file comment) for the model `base`: regression and output error on
-/// `fit_runs` (e.g. diagnose's fit windows), the error before and after over `all_runs`.
-/// `noise_floor` [position unit] for gap_closed (NaN: none). Never throws.
+/// `fit_runs` (e.g. diagnose's fit windows: the steady state, where n̂ is cleanest) and output
+/// error on `output_error_runs` (diagnose's whole fit runs; empty: `fit_runs`), the error before
+/// and after over `all_runs`. `noise_floor` [position unit] for gap_closed (NaN: none). Never
+/// throws.
 DiscoveredTermResult discover_term(const std::vector<DiagnoseRun>& fit_runs,
                                    const std::vector<DiagnoseRun>& all_runs,
                                    const DiscoveredBase& base,
                                    const DiscoveredTermOptions& options = {},
-                                   double noise_floor = std::numeric_limits<double>::quiet_NaN());
+                                   double noise_floor = std::numeric_limits<double>::quiet_NaN(),
+                                   const std::vector<DiagnoseRun>& output_error_runs = {});
 
 }  // namespace alphainv
