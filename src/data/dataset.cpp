@@ -555,6 +555,27 @@ void check_run_sense(const RunData& data, const std::string& file) {
 // --- RunData
 // ----------------------------------------------------------------------------------------
 
+RunData RunData::rows(std::size_t begin, std::size_t end) const {
+  if (begin > end || end > size()) {
+    throw Error("expected rows begin <= end <= " + std::to_string(size()) + ", got [" +
+                    std::to_string(begin) + ", " + std::to_string(end) + ")",
+                {}, 0, "end");
+  }
+  const auto b = static_cast<std::ptrdiff_t>(begin), e = static_cast<std::ptrdiff_t>(end);
+  auto cut = [b, e](const std::vector<double>& x) {
+    return x.size() < static_cast<std::size_t>(e) ? std::vector<double>{}
+                                                  : std::vector<double>(x.begin() + b, x.begin() + e);
+  };
+  RunData out;
+  out.t = cut(t);
+  out.r = cut(r);
+  out.theta = cut(theta);
+  out.v = cut(v);
+  for (const auto& [name, col] : extra_columns) out.extra_columns.emplace(name, cut(col));
+  out.ignored_columns = ignored_columns;
+  return out;
+}
+
 const std::vector<double>* RunData::column(std::string_view name) const {
   if (name == "t") return &t;
   if (name == "r") return &r;

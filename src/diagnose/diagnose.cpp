@@ -637,10 +637,7 @@ void cut_fit_windows(const std::vector<DiagnoseRun>& runs_in, double fit_window_
     const std::size_t h0 = k0 > 300 ? k0 - 300 : 0;
     p.runs[p.fit_runs[j]].command_history.assign(d.v.begin() + static_cast<std::ptrdiff_t>(h0),
                                                  d.v.begin() + static_cast<std::ptrdiff_t>(k0));
-    w.t.assign(d.t.begin() + static_cast<std::ptrdiff_t>(k0), d.t.end());
-    w.r.assign(d.r.begin() + static_cast<std::ptrdiff_t>(k0), d.r.end());
-    w.theta.assign(d.theta.begin() + static_cast<std::ptrdiff_t>(k0), d.theta.end());
-    w.v.assign(d.v.begin() + static_cast<std::ptrdiff_t>(k0), d.v.end());
+    w = d.rows(k0, d.size());  // with its known inputs (torque_enable, disturbance_v, v_comp)
     p.runs[p.fit_runs[j]].data = &w;
   }
 }
@@ -687,14 +684,7 @@ void split_folds(PreparedRuns& p) {
       const std::size_t a = f == 0 ? 0 : mid, b = f == 0 ? mid : w.size();
       if (b - a < 50) continue;
       RunData& h = p.half_data[2 * j + static_cast<std::size_t>(f)];
-      auto cut = [&](const std::vector<double>& x) {
-        return std::vector<double>(x.begin() + static_cast<std::ptrdiff_t>(a),
-                                   x.begin() + static_cast<std::ptrdiff_t>(b));
-      };
-      h.t = cut(w.t);
-      h.r = cut(w.r);
-      h.theta = cut(w.theta);
-      h.v = cut(w.v);
+      h = w.rows(a, b);  // with its known inputs
       DiagnoseRun hr = src;
       hr.data = &h;
       if (f == 1) {  // history: the commands before the second half

@@ -861,3 +861,26 @@ TEST_F(DatasetTest, AnInterruptedDatasetLosesOnlyItsIncompleteLastLine) {
 
 }  // namespace
 }  // namespace alphainv
+
+TEST(RunDataRows, AWindowKeepsEveryColumn) {
+  alphainv::RunData d;
+  for (int k = 0; k < 6; ++k) {
+    d.t.push_back(0.001 * k);
+    d.r.push_back(1.0 + k);
+    d.theta.push_back(2.0 + k);
+    d.v.push_back(3.0 + k);
+    d.extra_columns["torque_enable"].push_back(k < 3 ? 1.0 : 0.0);
+    d.extra_columns["disturbance_v"].push_back(0.1 * k);
+  }
+  const alphainv::RunData w = d.rows(2, 5);
+  ASSERT_EQ(w.size(), 3u);
+  EXPECT_EQ(w.t, (std::vector<double>{0.002, 0.003, 0.004}));
+  EXPECT_EQ(w.r, (std::vector<double>{3.0, 4.0, 5.0}));
+  EXPECT_EQ(w.theta, (std::vector<double>{4.0, 5.0, 6.0}));
+  EXPECT_EQ(w.v, (std::vector<double>{5.0, 6.0, 7.0}));
+  EXPECT_EQ(*w.column("torque_enable"), (std::vector<double>{1.0, 0.0, 0.0}));
+  EXPECT_DOUBLE_EQ((*w.column("disturbance_v"))[2], 0.4);
+  EXPECT_EQ(d.rows(6, 6).size(), 0u);
+  EXPECT_EQ(alphainv::test::error_of([&] { (void)d.rows(4, 7); }).field(), "end");
+  EXPECT_EQ(alphainv::test::error_of([&] { (void)d.rows(5, 4); }).field(), "end");
+}

@@ -518,5 +518,37 @@ TEST(DiagnoseStages, ExternalDisturbanceIsNotTheStartTransientRunningOn) {
   }
 }
 
+TEST(DiagnoseStages, FitWindowsAndFoldsKeepTheRunsKnownInputs) {
+  // A recorded disturbance_v: the fit windows (the runs' last fit_window_s) and the folds' halves
+  // are the run's rows with it, so the candidates are fitted with the pulses known (before, the
+  // windows had t, r, θ, v only: a free fall or a known pulse was simulated as if absent).
+  const PulseCase c = pulse_case(true);
+  const PreparedRuns p = prepare_runs(c.runs, c.opt);
+  ASSERT_FALSE(p.fit_runs.empty());
+  std::size_t checked = 0;
+  for (std::size_t i : p.fit_runs) {
+    const RunData& whole = *c.runs[i].data;
+    const RunData& w = *p.runs[i].data;
+    ASSERT_LT(w.size(), whole.size());
+    const std::vector<double>* dw = w.column("disturbance_v");
+    ASSERT_NE(dw, nullptr);
+    ASSERT_EQ(dw->size(), w.size());
+    const std::size_t k0 = whole.size() - w.size();
+    for (std::size_t k = 0; k < w.size(); ++k) {
+      ASSERT_EQ(w.t[k], whole.t[k0 + k]);
+      ASSERT_EQ((*dw)[k], (*whole.column("disturbance_v"))[k0 + k]);
+    }
+    ++checked;
+  }
+  EXPECT_EQ(checked, p.fit_runs.size());
+  for (const auto& fold : p.folds) {
+    for (std::size_t j : fold) {
+      const std::vector<double>* d = p.runs[j].data->column("disturbance_v");
+      ASSERT_NE(d, nullptr);
+      EXPECT_EQ(d->size(), p.runs[j].data->size());
+    }
+  }
+}
+
 }  // namespace
 }  // namespace alphainv::diagnose_detail

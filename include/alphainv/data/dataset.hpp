@@ -62,6 +62,10 @@ struct RunData {
   std::size_t size() const noexcept { return t.size(); }
   /// The column called `name` (t, r, theta, v or an extra column), or nullptr.
   const std::vector<double>* column(std::string_view name) const;
+  /// Rows [begin, end) with every column (t, r, theta, v and each extra column: a window of the
+  /// run keeps its known inputs, torque_enable, disturbance_v, v_comp, and its pose). Throws
+  /// alphainv::Error (field "end") unless begin ≤ end ≤ size().
+  RunData rows(std::size_t begin, std::size_t end) const;
 };
 
 /// The contents of dataset.json.
