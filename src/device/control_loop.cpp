@@ -398,20 +398,24 @@ TickRecord ControlLoop::tick(double t_s, const device::ReadResult& input, bool d
   //   a = (1 − e)/C.
   // θ̇_k comes from the last two measurements and the previous tick's command and model; e and a
   // of the previous tick's C are the previous tick's (reused), those of C when C changed.
+  // Two divisions per tick (1/C and 1/a), off the chain from the previous tick's u to this one's:
+  // β̃/C and 1/a are the previous tick's (a product by them is the quotient to rounding).
   const double T = config_.period_s;
-  double e = e_prev_, a = a_prev_;
+  double e = e_prev_, a = a_prev_, inv_a = inv_a_prev_;
   if (c > 0.0 && !(c == c_prev_ && c_prev_ > 0.0)) {
     e = std::exp(-c * T);
     a = (1.0 - e) / c;
+    inv_a = 1.0 / a;
   }
+  const double gain = beta / c;  // β̃/C: u·β̃/C is the steady velocity
   if (new_report && have_prev_tick_ && c > 0.0 && c_prev_ > 0.0) {
-    const double g_prev = beta_prev_ * u_prev_ / c_prev_;
-    const double theta_dot_prev = (theta_ - theta_prev_ - g_prev * (T - a_prev_)) / a_prev_;
+    const double g_prev = gain_prev_ * u_prev_;
+    const double theta_dot_prev = (theta_ - theta_prev_ - g_prev * (T - a_prev_)) * inv_a_prev_;
     const double theta_dot = theta_dot_prev * e_prev_ + g_prev * (1.0 - e_prev_);
     // u: the command through the effects plus their torque n(θ, θ̇), held over the tick.
     const double u =
         v_model + (has_torque_effects_ ? plant_torque(torque_effects_, t_s, theta_, theta_dot) : 0.0);
-    theta_pred_next_ = theta_ + theta_dot * a + (beta * u / c) * (T - a);
+    theta_pred_next_ = theta_ + theta_dot * a + (gain * u) * (T - a);
     u_prev_ = u;
     have_pred_ = true;
   } else {
@@ -423,9 +427,10 @@ TickRecord ControlLoop::tick(double t_s, const device::ReadResult& input, bool d
   have_prev_tick_ = new_report;
   v_prev_ = v;
   c_prev_ = c;
-  beta_prev_ = beta;
+  gain_prev_ = gain;
   e_prev_ = c > 0.0 ? e : 1.0;  // those of c_prev_ whenever c_prev_ > 0
   a_prev_ = c > 0.0 ? a : 0.0;
+  inv_a_prev_ = c > 0.0 ? inv_a : 0.0;
 
   rec.command_v = v;
   rec.alpha = alpha;
