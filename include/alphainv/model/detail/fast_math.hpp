@@ -21,13 +21,21 @@
 #include <cstdint>
 #include <cstring>
 
+/// Inlined where called: GCC kept fast_sin_cos() out of line in effect_torque_terms(), whose sum
+/// then waited on the call and its spills (perf).
+#if defined(__GNUC__)
+#define ALPHAINV_FAST_MATH_INLINE inline __attribute__((always_inline))
+#else
+#define ALPHAINV_FAST_MATH_INLINE inline
+#endif
+
 namespace alphainv::detail {
 
 /// Largest |x| [rad] fast_sin_cos() reduces itself (2^19·π/2); beyond it, std::sin and std::cos.
 inline constexpr double kFastTrigMax = 823549.6654455938;
 
 /// sin r and cos r for |r| ≤ π/4 (fdlibm's __kernel_sin and __kernel_cos with no tail).
-inline void sin_cos_kernel(double r, double& s, double& c) noexcept {
+ALPHAINV_FAST_MATH_INLINE void sin_cos_kernel(double r, double& s, double& c) noexcept {
   constexpr double S1 = -1.66666666666666324348e-01, S2 = 8.33333333332248946124e-03,
                    S3 = -1.98412698298579493134e-04, S4 = 2.75573137070700676789e-06,
                    S5 = -2.50507602534068634195e-08, S6 = 1.58969099521155010221e-10;
@@ -43,7 +51,7 @@ inline void sin_cos_kernel(double r, double& s, double& c) noexcept {
 }
 
 /// x reduced to r ∈ [−π/4, π/4] (about) and the quadrant n mod 4, for |x| ≤ kFastTrigMax.
-inline double reduce_half_pi(double x, unsigned& quadrant) noexcept {
+ALPHAINV_FAST_MATH_INLINE double reduce_half_pi(double x, unsigned& quadrant) noexcept {
   constexpr double kInvHalfPi = 6.36619772367581382433e-01;
   constexpr double kP1 = 1.57079632673412561417e+00;  // first 33 bits of π/2
   constexpr double kP2 = 6.07710050630396597660e-11;  // next 33 bits
@@ -58,7 +66,7 @@ inline double reduce_half_pi(double x, unsigned& quadrant) noexcept {
 }
 
 /// sin x and cos x (file comment). Real-time safe.
-inline void fast_sin_cos(double x, double& s, double& c) noexcept {
+ALPHAINV_FAST_MATH_INLINE void fast_sin_cos(double x, double& s, double& c) noexcept {
   if (!(std::abs(x) <= kFastTrigMax)) {
     s = std::sin(x);
     c = std::cos(x);
@@ -79,14 +87,14 @@ inline void fast_sin_cos(double x, double& s, double& c) noexcept {
 }
 
 /// sin x (file comment; fast_sin_cos() without the cosine's sign). Real-time safe.
-inline double fast_sin(double x) noexcept {
+ALPHAINV_FAST_MATH_INLINE double fast_sin(double x) noexcept {
   double s = 0.0, c = 1.0;
   fast_sin_cos(x, s, c);
   return s;
 }
 
 /// tanh x (file comment). Real-time safe.
-inline double fast_tanh(double x) noexcept {
+ALPHAINV_FAST_MATH_INLINE double fast_tanh(double x) noexcept {
   const double ax = std::abs(x);
   double t_abs;
   if (ax >= 22.0) {
