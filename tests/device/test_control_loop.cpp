@@ -3,8 +3,13 @@
 // disables the motor in the tick that detects it, and the tick allocates nothing.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "support/counting_allocator.hpp"
@@ -348,4 +353,109 @@ TEST(ReferenceTransition, ACycloidFromRestToRestWithinItsCommandBudget) {
   const double D = ReferenceTransition::fastest_duration_s(-h, C, B, V);
   EXPECT_NEAR(2.0 * kPi * h / (D * D) + 2.0 * C * h / D, B * V, 1e-9 * B * V);
   EXPECT_EQ(ReferenceTransition::fastest_duration_s(0.0, C, B, V), 0.0);
+}
+
+namespace {
+
+/// The tick's records of a fixed input for the golden comparison: the bench's configuration (a
+/// model with Coulomb friction, offset, cogging and a deadzone) in compensation mode `mode`, fed
+/// the bench's encoder trace open loop (a 0.95 Hz sine of 400 counts: the inputs do not depend
+/// on the outputs, so a difference cannot feed back), a 0.07 rad 3 Hz sine reference from tick 1
+/// and a 0.05 rad step from tick 200 (the feedforward modes follow it along a cycloid).
+std::vector<TickRecord> golden_ticks(CompensationMode mode) {
+  ControlLoopConfig c;
+  c.effects.coulomb_v = 0.02;
+  c.effects.offset_v = -0.01;
+  c.effects.cogging_v = 0.01;
+  c.effects.deadzone_v = 0.01;
+  c.compensation.mode = mode;
+  ControlLoop loop{c};
+  ReadResult in;
+  in.status = IoStatus::kOk;
+  in.reports_read = 1;
+  std::vector<TickRecord> records;
+  for (int k = 0; k < 260; ++k) {
+    const double t = k * 1e-3;
+    in.report.sequence = static_cast<std::uint16_t>(k + 1);
+    in.report.encoder_counts[0] = static_cast<std::int32_t>(400.0 * std::sin(6.0 * t));
+    OutputReport out;
+    records.push_back(loop.tick(t, in, false, out));
+    if (k == 0) loop.set_reference(Waveform{WaveKind::kSine, 0.07, 3.0, 0.0}, 0.0, true);
+    if (k == 200) loop.set_reference(Waveform{WaveKind::kStep, 0.05, 0.0, 0.0}, t, true);
+  }
+  return records;
+}
+
+constexpr const char* kGoldenTicks = "/tests/fixtures/control_loop_ticks.csv";
+
+}  // namespace
+
+// The tick's outputs equal, to rounding, those of the implementation before the tick was made
+// cheaper (fast_math.hpp's sin, cos and tanh; the prediction's reciprocals): the fixture was
+// written by this test (ALPHAINV_WRITE_TICK_GOLDEN=1) built against commit 5c8659c, which used
+// std::sin, glibc's sincos, std::tanh and divided. Commands within 1e-9 V (the DAC's counts
+// identical), α̂ to 1e-9 relative, C and β̃ to 1e-12 relative, r and the prediction to 1e-12 rad.
+TEST(ControlLoop, TickEqualsThePreviousImplementationToRounding) {
+  const std::string path = std::string(ALPHAINV_SOURCE_DIR) + kGoldenTicks;
+  const CompensationMode modes[] = {CompensationMode::kNone, CompensationMode::kEffects,
+                                    CompensationMode::kFeedforward, CompensationMode::kAll};
+  if (std::getenv("ALPHAINV_WRITE_TICK_GOLDEN") != nullptr) {
+    std::FILE* f = std::fopen(path.c_str(), "w");
+    ASSERT_NE(f, nullptr) << path;
+    std::fprintf(f, "mode,k,r_rad,p_command_v,comp_command_v,command_v,dac_counts,alpha,damping,"
+                    "beta_tilde,theta_pred_rad\n");
+    for (CompensationMode m : modes) {
+      const std::vector<TickRecord> recs = golden_ticks(m);
+      for (std::size_t k = 0; k < recs.size(); ++k) {
+        const TickRecord& r = recs[k];
+        std::fprintf(f, "%s,%zu,%.17g,%.17g,%.17g,%.17g,%d,%.17g,%.17g,%.17g,%.17g\n",
+                     to_string(m), k, r.r_rad, r.p_command_v, r.comp_command_v, r.command_v,
+                     static_cast<int>(r.dac_counts), r.alpha, r.damping, r.beta_tilde,
+                     r.theta_pred_rad);
+      }
+    }
+    std::fclose(f);
+    GTEST_SKIP() << "wrote " << path;
+  }
+  std::FILE* f = std::fopen(path.c_str(), "r");
+  ASSERT_NE(f, nullptr) << path;
+  char line[512];
+  ASSERT_NE(std::fgets(line, sizeof line, f), nullptr);  // the header
+  std::size_t rows = 0;
+  double worst_v = 0.0, worst_pred = 0.0;
+  for (CompensationMode m : modes) {
+    const std::vector<TickRecord> recs = golden_ticks(m);
+    for (std::size_t k = 0; k < recs.size(); ++k) {
+      ASSERT_NE(std::fgets(line, sizeof line, f), nullptr) << to_string(m) << " tick " << k;
+      char name[32];
+      std::size_t kk = 0;
+      int dac = 0;
+      double r = 0, vp = 0, vc = 0, v = 0, alpha = 0, damping = 0, beta = 0, pred = 0;
+      ASSERT_EQ(std::sscanf(line, "%31[^,],%zu,%lf,%lf,%lf,%lf,%d,%lf,%lf,%lf,%lf", name, &kk, &r,
+                            &vp, &vc, &v, &dac, &alpha, &damping, &beta, &pred),
+                11)
+          << line;
+      ASSERT_EQ(std::string(name), to_string(m));
+      ASSERT_EQ(kk, k);
+      const TickRecord& rec = recs[k];
+      const std::string at = std::string(name) + " tick " + std::to_string(k);
+      EXPECT_NEAR(rec.r_rad, r, 1e-12) << at;
+      EXPECT_NEAR(rec.p_command_v, vp, 1e-9) << at;
+      EXPECT_NEAR(rec.comp_command_v, vc, 1e-9) << at;
+      EXPECT_NEAR(rec.command_v, v, 1e-9) << at;
+      EXPECT_EQ(rec.dac_counts, dac) << at;
+      EXPECT_NEAR(rec.alpha, alpha, 1e-9 * std::max(1.0, std::abs(alpha))) << at;
+      EXPECT_NEAR(rec.damping, damping, 1e-12 * std::abs(damping)) << at;
+      EXPECT_NEAR(rec.beta_tilde, beta, 1e-12 * std::abs(beta)) << at;
+      EXPECT_NEAR(rec.theta_pred_rad, pred, 1e-12) << at;
+      worst_v = std::max({worst_v, std::abs(rec.comp_command_v - vc), std::abs(rec.command_v - v)});
+      worst_pred = std::max(worst_pred, std::abs(rec.theta_pred_rad - pred));
+      ++rows;
+    }
+  }
+  std::fclose(f);
+  EXPECT_EQ(rows, 4u * 260u);
+  char worst[64];
+  std::snprintf(worst, sizeof worst, "%.3g V, %.3g rad", worst_v, worst_pred);
+  RecordProperty("worst_command_and_prediction_differences", worst);
 }

@@ -233,8 +233,9 @@ class ControlLoop {
   TorqueEffects torque_effects_;
   /// The model has a torque effect (else the prediction skips n(θ, θ̇) = 0).
   bool has_torque_effects_ = false;
-  /// exp(−C_prev·T) and (1 − e)/C_prev of the previous tick's prediction (reused by this one).
-  double e_prev_ = 1.0, a_prev_ = 0.0;
+  /// exp(−C_prev·T), a = (1 − e)/C_prev and 1/a of the previous tick's prediction (reused by
+  /// this one).
+  double e_prev_ = 1.0, a_prev_ = 0.0, inv_a_prev_ = 0.0;
   double alpha_prev_ = 0.0;  ///< the previous tick's α̂ (for the feedforward)
   /// The previous tick's C(α̂, I) and β̃(α̂, I) (the feedforward's; 0 before the first tick).
   double c_last_ = 0.0, beta_last_ = 0.0;
@@ -250,7 +251,8 @@ class ControlLoop {
   double theta_ = 0.0, theta_prev_ = 0.0, gamma1_ = 0.0, gamma2_ = 0.0;
   // The previous tick's model quantities, for the velocity estimate of the prediction.
   bool have_prev_tick_ = false;
-  double v_prev_ = 0.0, c_prev_ = 0.0, beta_prev_ = 0.0;
+  double v_prev_ = 0.0, c_prev_ = 0.0;
+  double gain_prev_ = 0.0;  ///< β̃/C of the previous tick
   double u_prev_ = 0.0;  ///< the previous tick's model input u (command through the effects)
   /// Commands sent, for the model's delay (a ring; no allocation in the tick).
   static constexpr std::size_t kMaxDelayTicks = 1023;

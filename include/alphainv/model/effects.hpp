@@ -203,30 +203,32 @@ inline std::string discovered_equation(const Effects& e) {
 namespace detail {
 
 /// The terms of n(θ, θ̇) (file comment): the one formula of effect_torque() and of TorqueEffects
-/// (torque_effects.hpp). `a` says which terms are on and gives the arguments of their tanh and sin:
-/// DividedArguments as written (θ̇/ε, 2π·θ/p, the tests of the parameters each call),
-/// TorqueEffects' precomputed ones (θ̇·(1/ε), θ·(2π/p), flags). Real-time safe.
+/// (torque_effects.hpp). `a` says which terms are on, gives the arguments of their tanh and sin
+/// and evaluates those (a.tanh(x), a.sin(x)): DividedArguments as written (θ̇/ε, 2π·θ/p, the tests
+/// of the parameters each call, std::tanh and std::sin), TorqueEffects' precomputed ones
+/// (θ̇·(1/ε), θ·(2π/p), flags) with detail::fast_tanh and fast_sin (fast_math.hpp: a few ulp from
+/// std::). Real-time safe.
 template <class Arguments>
 inline double effect_torque_terms(const Effects& e, const Arguments& a, double theta,
                                   double theta_dot) noexcept {
   double n = e.offset_v;
-  if (a.coulomb_on()) n -= e.coulomb_v * std::tanh(a.coulomb_x(theta_dot));
-  if (a.gravity_on()) n -= e.gravity_v * std::sin(theta + e.gravity_theta0_rad);
-  if (a.cogging_on()) n += e.cogging_v * std::sin(a.cogging_x(theta) + e.cogging_phase_rad);
+  if (a.coulomb_on()) n -= e.coulomb_v * a.tanh(a.coulomb_x(theta_dot));
+  if (a.gravity_on()) n -= e.gravity_v * a.sin(theta + e.gravity_theta0_rad);
+  if (a.cogging_on()) n += e.cogging_v * a.sin(a.cogging_x(theta) + e.cogging_phase_rad);
   if (a.stribeck_on()) {
     const double x = a.stribeck_w(theta_dot);
-    n -= std::tanh(a.stribeck_x(theta_dot)) *
+    n -= a.tanh(a.stribeck_x(theta_dot)) *
          (e.stribeck_coulomb_v + (e.stribeck_breakaway_v - e.stribeck_coulomb_v) * std::exp(-x * x));
   }
   if (a.asymmetric_on()) {
-    const double sg = std::tanh(a.asymmetric_x(theta_dot));
+    const double sg = a.tanh(a.asymmetric_x(theta_dot));
     n -= sg * (e.asymmetric_coulomb_pos_v * 0.5 * (1.0 + sg) +
                e.asymmetric_coulomb_neg_v * 0.5 * (1.0 - sg)) +
          0.5 * e.asymmetric_viscous_diff_v_s * theta_dot * sg;
   }
   if (a.position_on()) {
     const double level = std::max(0.0, e.position_coulomb_v + e.position_slope_v_per_rad * theta);
-    n -= std::tanh(a.position_x(theta_dot)) * level;
+    n -= a.tanh(a.position_x(theta_dot)) * level;
   }
   if (a.discovered_on()) n += discovered_torque(e, theta, theta_dot);
   return n;
@@ -259,6 +261,8 @@ struct DividedArguments {
     return theta_dot / e.asymmetric_smoothing_rad_s;
   }
   double position_x(double theta_dot) const noexcept { return theta_dot / e.position_smoothing_rad_s; }
+  static double tanh(double x) noexcept { return std::tanh(x); }
+  static double sin(double x) noexcept { return std::sin(x); }
 };
 
 }  // namespace detail

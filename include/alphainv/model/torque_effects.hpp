@@ -7,10 +7,12 @@
 ///   - 1/ε of every tanh smoothing (θ̇·(1/ε) for θ̇/ε) and 1/v_s of the Stribeck velocity,
 ///   - 2π/p of the cogging (θ·(2π/p) for 2π·θ/p),
 ///   - which terms are on, the discovered term's included (its 17 coefficients are not tested
-///     again: the tick skips the library when it is off).
-/// A product by the reciprocal differs from the quotient by at most an ulp or so of the
-/// argument, so torque() equals effect_torque() to rounding, not bit for bit.
+///     again: the tick skips the library when it is off),
+/// and tanh and sin by detail::fast_tanh and fast_sin (fast_math.hpp: inline, within 3 and 2 ulp
+/// of std::tanh and std::sin). A product by the reciprocal differs from the quotient by at most an
+/// ulp or so of the argument, so torque() equals effect_torque() to rounding, not bit for bit.
 
+#include "alphainv/model/detail/fast_math.hpp"
 #include "alphainv/model/effects.hpp"
 
 namespace alphainv {
@@ -75,6 +77,8 @@ class TorqueEffects {
       return theta_dot * inv_asymmetric_smoothing;
     }
     double position_x(double theta_dot) const noexcept { return theta_dot * inv_position_smoothing; }
+    static double tanh(double x) noexcept { return detail::fast_tanh(x); }
+    static double sin(double x) noexcept { return detail::fast_sin(x); }
 
     bool coulomb, gravity, cogging, stribeck, asymmetric, position, discovered;
     bool any;  ///< any term on, the offset included
