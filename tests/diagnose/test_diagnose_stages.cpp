@@ -496,5 +496,43 @@ TEST(DiagnoseStages, ExternalDisturbanceRecordedIsKnownAndNothingIsLeftToLocate)
   EXPECT_FALSE(f.named) << f.message;
 }
 
+// The pair fallback on effect-free data (a generated 10-run dataset, seed 25): run on purpose
+// (the verdict there is "explained", where diagnose() would not try it), it fits pairs of the
+// round's best candidates and names none of them.
+TEST(DiagnoseStages, PairFallbackNamesNoPairOnEffectFreeData) {
+  const GeneratedDataset g = test::one_pose_dataset(Effects{}, 25);
+  const DatasetFit fit = fit_dataset(g.index, g.runs);
+  ASSERT_TRUE(fit.usable());
+  const std::vector<DiagnoseRun> runs = diagnose_runs(g.index, g.runs, fit);
+  DiagnoseOptions opt;
+  opt.simulation = fit.simulation;
+  opt.candidates = {EffectKind::kNone, EffectKind::kOffsetTorque, EffectKind::kGravity,
+                    EffectKind::kTimeDelay, EffectKind::kDeadzone};
+  const PreparedRuns prepared = prepare_runs(runs, opt);
+  const RoundModel model = initial_model(runs, prepared);
+  const Reidentifier reid(runs, opt.simulation.loop_period_s, opt.threads);
+  ASSERT_TRUE(reid.usable());
+  CandidateScore settled;
+  std::string failure;
+  const DiagnoseRound rd = diagnose_round(runs, prepared, model, reid, opt.candidates, opt,
+                                          &settled, &failure, true);
+  ASSERT_TRUE(failure.empty()) << failure;
+  EXPECT_EQ(rd.named, EffectKind::kNone);
+  EXPECT_EQ(rd.named_second, EffectKind::kNone);
+  EXPECT_DOUBLE_EQ(rd.error_after, rd.error_before);  // the model is left as it was
+  std::string table;
+  for (const CandidateScore& c : rd.candidates)
+    table += std::string(effect_name(c.effect)) + " " + std::to_string(c.training_rms) + " " +
+             c.inactive + " " + c.message + "\n";
+  ASSERT_FALSE(rd.pairs.empty()) << table;  // tried: the four candidates are active
+  EXPECT_LE(rd.pairs.size(), kMaxPairFits);
+  for (const PairScore& p : rd.pairs) {
+    EXPECT_FALSE(p.named);
+    EXPECT_NE(p.kinds[0], p.kinds[1]);
+    EXPECT_NE(p.kinds[0], EffectKind::kNone);
+    EXPECT_FALSE(p.fit.message.empty());  // why it was not named
+  }
+}
+
 }  // namespace
 }  // namespace alphainv::diagnose_detail
