@@ -67,10 +67,11 @@ nlohmann::json result_json(const DiagnoseResult& res) {
                      {"error_after", num(res.disturbance.error_after)}});
   }
   for (const DiagnoseRound& rd : res.rounds) {
-    if (rd.named == EffectKind::kNone) continue;
-    named.push_back({{"effect", effect_name(rd.named)},
-                     {"parameters", parameters_json(res.effects, rd.named)},
-                     {"error_after", num(rd.error_after)}});
+    for (EffectKind k : {rd.named, rd.named_second}) {  // (a pair: both, the round's error after)
+      if (k == EffectKind::kNone) continue;
+      named.push_back({{"effect", effect_name(k)}, {"parameters", parameters_json(res.effects, k)},
+                       {"error_after", num(rd.error_after)}});
+    }
   }
   // The discovered term (tried when structure remained after the named effects): its terms,
   // the error after it, and whether it was kept (in the model) and carries the remainder.

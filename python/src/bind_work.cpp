@@ -318,6 +318,17 @@ struct DiagnoseOutcome {
     for (const DiagnoseRound& r : result.rounds) {
       py::dict d;
       d["named"] = effect_name(r.named), d["error_before"] = num(r.error_before), d["error_after"] = num(r.error_after);
+      d["named_second"] = effect_name(r.named_second);  // the pair fallback's second effect
+      py::list pairs;
+      for (const PairScore& p : r.pairs) {
+        py::dict pd = candidate(p.fit);
+        pd["kinds"] = py::make_tuple(effect_name(p.kinds[0]), effect_name(p.kinds[1]));
+        pd["parameters"] = effect_parameters_text(p.fit.effects, p.kinds[0]) + "; " +
+                           effect_parameters_text(p.fit.effects, p.kinds[1]);
+        pd["named"] = p.named;
+        pairs.append(pd);
+      }
+      d["pairs"] = pairs;
       py::list cands;
       for (const CandidateScore& c : r.candidates) cands.append(candidate(c));
       d["candidates"] = cands;

@@ -908,9 +908,18 @@ CandidateFitter::CandidateFitter(const std::vector<DiagnoseRun>& runs_in,
       none_error_after_(kNaN) {}
 
 std::vector<ParamBlock> CandidateFitter::blocks_with(EffectKind kind, const Effects& e) const {
+  return blocks_with(kind == EffectKind::kNone ? std::vector<EffectKind>{}
+                                               : std::vector<EffectKind>{kind},
+                     e);
+}
+
+std::vector<ParamBlock> CandidateFitter::blocks_with(const std::vector<EffectKind>& kinds,
+                                                     const Effects& e) const {
   std::vector<ParamBlock> blocks;
   for (EffectKind k : model_.named) blocks.push_back(param_block(k, e, prepared_.scales));
-  if (kind != EffectKind::kNone) blocks.push_back(param_block(kind, e, prepared_.scales));
+  for (EffectKind k : kinds) {
+    if (k != EffectKind::kNone) blocks.push_back(param_block(k, e, prepared_.scales));
+  }
   return blocks;
 }
 
@@ -918,11 +927,22 @@ CandidateScore CandidateFitter::fit(EffectKind kind, const Effects& e,
                                     const ModelScales& start_scales,
                                     const std::optional<AlphaModel>& cand_alpha, bool searched,
                                     bool cv, PendingCrossValidation* later) const {
+  return fit_joint(kind == EffectKind::kNone ? std::vector<EffectKind>{}
+                                             : std::vector<EffectKind>{kind},
+                   e, start_scales, cand_alpha, searched, cv, later);
+}
+
+CandidateScore CandidateFitter::fit_joint(const std::vector<EffectKind>& kinds, const Effects& e,
+                                          const ModelScales& start_scales,
+                                          const std::optional<AlphaModel>& cand_alpha,
+                                          bool searched, bool cv,
+                                          PendingCrossValidation* later) const {
   const DiagnoseOptions& opt = options_;
   const ModelScales& ms = model_.scales;
   CandidateScore cand;
+  const EffectKind kind = kinds.empty() ? EffectKind::kNone : kinds.front();
   cand.effect = kind;
-  const std::vector<ParamBlock> blocks = blocks_with(kind, e);
+  const std::vector<ParamBlock> blocks = blocks_with(kinds, e);
   Effects base = model_.effects;
   // Fit on all fit runs, then on each fold from there.
   OutputErrorProblem pr =
@@ -933,7 +953,7 @@ CandidateScore CandidateFitter::fit(EffectKind kind, const Effects& e,
   // The command-path effects have cost functions with several minima (a delay against a
   // lightly damped resonance; a limit or deadzone that is inactive at its start): extra starts
   // (unless the search above has already looked).
-  if (!searched) {
+  if (!searched && kinds.size() == 1) {
     const std::size_t at = pr.parameters.size() - 1;  // the new effect's (only) parameter
     const EffectSpec& spec = effect_spec(kind);
     const std::vector<double> extra = spec.extra_starts != nullptr
@@ -1277,6 +1297,13 @@ Choice choose_winner(const CandidateFitter& fitter, const Reidentifier& reid, Di
 }
 
 CandidateScore settle_winner(const CandidateFitter& fitter, const CandidateScore& winner) {
+  return settle_winner(fitter, winner,
+                       winner.effect == EffectKind::kNone ? std::vector<EffectKind>{}
+                                                          : std::vector<EffectKind>{winner.effect});
+}
+
+CandidateScore settle_winner(const CandidateFitter& fitter, const CandidateScore& winner,
+                             const std::vector<EffectKind>& kinds) {
   const DiagnoseOptions& opt = fitter.options();
   CandidateScore settled = winner;
   if (!(opt.fit_window_s > 0.0)) return settled;
@@ -1285,7 +1312,7 @@ CandidateScore settle_winner(const CandidateFitter& fitter, const CandidateScore
   const std::vector<DiagnoseRun>& runs_in = fitter.runs_in();
   const std::vector<std::size_t>& all = fitter.prepared().all;
   const Effects& current = fitter.model().effects;
-  const std::vector<ParamBlock> blocks = fitter.blocks_with(winner.effect, winner.effects);
+  const std::vector<ParamBlock> blocks = fitter.blocks_with(kinds, winner.effects);
   const OutputErrorProblem pr = make_problem(runs_in, fitter.prepared().fit_runs, blocks, current,
                                              winner.scales, opt, winner.alpha);
   OutputErrorOptions oo;
@@ -1313,10 +1340,212 @@ bool improves_all_runs(const CandidateScore& settled, double error_before, doubl
   return settled.error_after <= (1.0 - 0.5 * significance) * error_before;
 }
 
+bool pair_eligible(const CandidateScore& c, const RoundModel& model) {
+  if (!c.ok || !c.inactive.empty() || c.effect == EffectKind::kNone) return false;
+  const EffectSpec& spec = effect_spec(c.effect);
+  if (!spec.candidate || spec.role == EffectRole::kTimeSeries || spec.refines != EffectKind::kNone)
+    return false;
+  return std::find(model.named.begin(), model.named.end(), c.effect) == model.named.end();
+}
+
+namespace {
+
+/// The model's effects `base` with the parameters of candidates a and b (each its own kind)
+/// taken from their fits.
+Effects pair_start(const Effects& base, const CandidateScore& a, const CandidateScore& b) {
+  Effects e = base;
+  for (const CandidateScore* c : {&a, &b}) {
+    for (const auto& p : effect_parameters(c->effect, true)) e.*(p.member) = c->effects.*(p.member);
+  }
+  return e;
+}
+
+}  // namespace
+
+std::vector<PairStart> choose_pairs(const CandidateFitter& fitter, const Reidentifier& reid,
+                                   const DiagnoseRound& rd) {
+  const PreparedRuns& prepared = fitter.prepared();
+  const RoundModel& model = fitter.model();
+  const DiagnoseOptions& opt = fitter.options();
+  std::vector<std::size_t> eligible;
+  for (std::size_t k = 0; k < rd.candidates.size(); ++k) {
+    const CandidateScore& c = rd.candidates[k];
+    if (pair_eligible(c, model) && !delay_below_one_tick(c, opt.simulation) &&
+        std::isfinite(c.training_rms))
+      eligible.push_back(k);
+  }
+  // The pool: the kPairPoolEach lowest training RMS and the kPairPoolEach lowest RMS over all
+  // runs (a candidate's windows can fit well by a lucky breakpoint set and the whole runs badly,
+  // and an effect masked by another can fit the windows badly alone).
+  std::vector<std::size_t> pool;
+  for (int by = 0; by < 2; ++by) {
+    std::vector<std::size_t> order = eligible;
+    const auto key = [&](std::size_t k) {
+      const CandidateScore& c = rd.candidates[k];
+      const double x = by == 0 ? c.training_rms : c.error_after;
+      return std::isfinite(x) ? x : kInf;
+    };
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::size_t x, std::size_t y) { return key(x) < key(y); });
+    for (std::size_t j = 0; j < std::min(order.size(), kPairPoolEach); ++j) {
+      if (std::find(pool.begin(), pool.end(), order[j]) == pool.end()) pool.push_back(order[j]);
+    }
+  }
+  std::sort(pool.begin(), pool.end());
+  std::vector<PairStart> screened;
+  for (std::size_t i = 0; i < pool.size(); ++i) {
+    for (std::size_t j = i + 1; j < pool.size(); ++j) {
+      // In the order of the single scores (the better first); the second's parameters are
+      // searched with the first's fitted ones in the model (its own fit was made without them).
+      const bool i_first = rd.candidates[pool[i]].score <= rd.candidates[pool[j]].score;
+      PairStart ps;
+      ps.at = {i_first ? pool[i] : pool[j], i_first ? pool[j] : pool[i]};
+      const CandidateScore& first = rd.candidates[ps.at[0]];
+      const CandidateScore& second = rd.candidates[ps.at[1]];
+      ps.effects = pair_start(model.effects, first, second);
+      ps.alpha = model.alpha;
+      if (reid.usable()) {
+        EffectSearch search;
+        search.runs = &prepared.runs;
+        search.fit_runs = &prepared.fit_runs;
+        search.reid = &reid;
+        search.opt = &opt;
+        search.base = pair_start(model.effects, first, first);
+        search.unit = prepared.unit_scales;
+        if (!search_reidentified(second.effect, ps.effects, prepared.scales, search)) continue;
+        ps.effects = search.best;
+        ps.screen_rms = search.best_rms;
+      } else {
+        ps.screen_rms = pooled_rms(
+            prepared.runs,
+            run_rms_with(prepared.runs, prepared.fit_runs, ps.effects, model.scales, opt, ps.alpha),
+            prepared.fit_runs);
+      }
+      if (std::isfinite(ps.screen_rms)) screened.push_back(std::move(ps));
+    }
+  }
+  std::stable_sort(screened.begin(), screened.end(), [](const PairStart& x, const PairStart& y) {
+    return x.screen_rms < y.screen_rms;
+  });
+  if (screened.size() > kMaxPairFits) screened.resize(kMaxPairFits);
+  if (reid.usable()) {
+    for (PairStart& ps : screened) {
+      // The first's parameters searched again with the second's found ones (its own fit was
+      // made without them too), then the breakpoint set that predicts the fit runs best.
+      EffectSearch search;
+      search.runs = &prepared.runs;
+      search.fit_runs = &prepared.fit_runs;
+      search.reid = &reid;
+      search.opt = &opt;
+      search.base = ps.effects;
+      search.unit = prepared.unit_scales;
+      if (search_reidentified(rd.candidates[ps.at[0]].effect, ps.effects, prepared.scales, search) &&
+          search.best_rms < ps.screen_rms) {
+        ps.effects = search.best;
+        ps.screen_rms = search.best_rms;
+      }
+      ps.alpha = best_variant(reid, ps.effects, prepared.runs, prepared.fit_runs,
+                              prepared.unit_scales, opt, false);
+    }
+  }
+  return screened;
+}
+
+std::optional<std::size_t> try_pairs(const CandidateFitter& fitter, const Reidentifier& reid,
+                                     DiagnoseRound& rd, CandidateScore* settled) {
+  const PreparedRuns& prepared = fitter.prepared();
+  const RoundModel& model = fitter.model();
+  const DiagnoseOptions& opt = fitter.options();
+  const auto none = std::find_if(rd.candidates.begin(), rd.candidates.end(), [](const CandidateScore& c) {
+    return c.effect == EffectKind::kNone && c.ok;
+  });
+  if (none == rd.candidates.end()) return std::nullopt;
+  const CandidateScore none_score = *none;
+  const double largest_v = largest_abs_command_v(prepared);
+  for (const PairStart& start : choose_pairs(fitter, reid, rd)) {
+    PairScore ps;
+    ps.kinds = {rd.candidates[start.at[0]].effect, rd.candidates[start.at[1]].effect};
+    ps.fit = fitter.fit_joint({ps.kinds[0], ps.kinds[1]}, start.effects,
+                              reid.usable() ? prepared.unit_scales : model.scales, start.alpha, true,
+                              true, nullptr);
+    rd.pairs.push_back(std::move(ps));
+  }
+  // The best cross-validated pair (among pairs within 5 % of it the one with fewest
+  // parameters, as for a single), then the tests of a single winner.
+  const auto n_parameters = [](const PairScore& p) {
+    return effect_parameters(p.kinds[0]).size() + effect_parameters(p.kinds[1]).size();
+  };
+  std::optional<std::size_t> best;
+  for (std::size_t k = 0; k < rd.pairs.size(); ++k) {
+    const CandidateScore& f = rd.pairs[k].fit;
+    if (!f.ok || !f.cross_validated) continue;
+    if (!best || f.score < rd.pairs[*best].fit.score) best = k;
+  }
+  if (!best) return std::nullopt;
+  const double best_score = rd.pairs[*best].fit.score;
+  for (std::size_t k = 0; k < rd.pairs.size(); ++k) {
+    const CandidateScore& f = rd.pairs[k].fit;
+    if (f.ok && f.cross_validated && f.score <= 1.05 * best_score &&
+        n_parameters(rd.pairs[k]) < n_parameters(rd.pairs[*best]))
+      best = k;
+  }
+  for (std::size_t k = 0; k < rd.pairs.size(); ++k) {
+    CandidateScore& f = rd.pairs[k].fit;
+    if (k != *best && f.ok && f.cross_validated && f.message.empty())
+      f.message = "not the best pair (lowest score; fewest parameters within 5 %)";
+  }
+  PairScore& ps = rd.pairs[*best];
+  CandidateScore& f = ps.fit;
+  // Both effects active in the joint fit, and a delay of at least one tick.
+  for (EffectKind k : ps.kinds) {
+    CandidateScore one = f;
+    one.effect = k;
+    const std::string why = inactive_reason(one, largest_v);
+    if (!why.empty()) {
+      f.message = "set aside: " + why;
+      return std::nullopt;
+    }
+    if (delay_below_one_tick(one, opt.simulation)) {
+      f.message = "its delay is below one controller tick";
+      return std::nullopt;
+    }
+  }
+  if (!beats(f, none_score, opt.significance)) {
+    f.message = "not below (1 − significance) × the score of none in both folds";
+    return std::nullopt;
+  }
+  if (f.alpha && reid.usable()) {
+    const std::optional<AlphaModel> twin_alpha = reid.fit_at(model.effects, breakpoints_of(*f.alpha));
+    if (twin_alpha) {
+      CandidateScore twin = fitter.fit(EffectKind::kNone, model.effects, prepared.unit_scales,
+                                       twin_alpha, false, true, nullptr);
+      if (twin.ok) {
+        ps.none_at_breakpoints = twin;
+        if (!beats(f, twin, opt.significance)) {
+          f.message = "not below (1 − significance) × the score of none at its breakpoints";
+          return std::nullopt;
+        }
+      }
+    }
+  }
+  const CandidateScore s = settle_winner(fitter, f, {ps.kinds[0], ps.kinds[1]});
+  if (!improves_all_runs(s, rd.error_before, opt.significance)) {
+    f.message = "settled on the whole fit runs, the RMS over all runs " + num(s.error_after, "%.4g") +
+                " is not below (1 − significance/2) × " + num(rd.error_before, "%.4g");
+    return std::nullopt;
+  }
+  f = s;
+  f.message = "named as a pair (neither alone was named)" +
+              (s.message.empty() ? std::string() : "; " + s.message);
+  ps.named = true;
+  *settled = s;
+  return best;
+}
+
 DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const PreparedRuns& prepared,
                              const RoundModel& model, const Reidentifier& reid,
                              const std::vector<EffectKind>& catalogue, const DiagnoseOptions& opt,
-                             CandidateScore* settled, std::string* failure) {
+                             CandidateScore* settled, std::string* failure, bool pair_fallback) {
   DiagnoseRound rd;
   const RoundStart start = start_round(runs_in, prepared, model, reid, opt);
   rd.error_before = start.error_before;
@@ -1388,6 +1617,17 @@ DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const Prep
   CandidateScore s;
   if (choice.named) s = settle_winner(fitter, rd.candidates[*choice.winner]);
   if (!choice.named || !improves_all_runs(s, rd.error_before, opt.significance)) {
+    // No single effect: two that mask each other may, fitted together.
+    CandidateScore pair;
+    const std::optional<std::size_t> named_pair =
+        pair_fallback ? try_pairs(fitter, reid, rd, &pair) : std::nullopt;
+    if (named_pair) {
+      rd.named = rd.pairs[*named_pair].kinds[0];
+      rd.named_second = rd.pairs[*named_pair].kinds[1];
+      rd.error_after = pair.error_after;
+      *settled = std::move(pair);
+      return rd;
+    }
     rd.error_after = rd.error_before;  // `none`: the model stays as it was
     return rd;
   }
@@ -1561,12 +1801,18 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
   res.noise_floor = estimate_noise_floor(residual_series(runs_in, sims0));
   res.verdict_before = judge_residual(residual_series(runs_in, sims0), res.noise_floor);
   res.termination = DiagnoseTermination::kMaxEffects;
-  for (std::size_t round = 0; round < opt.max_effects; ++round) {
+  // The verdict on the round's model (the pair fallback runs only while structure remains).
+  ResidualVerdict verdict_now = res.verdict_before.verdict;
+  for (std::size_t named_so_far = 0; named_so_far < opt.max_effects;) {
     CandidateScore settled;
     std::string failure;
-    DiagnoseRound rd =
-        diagnose_round(runs_in, prepared, model, reid, catalogue, opt, &settled, &failure);
+    const bool pair_fallback = named_so_far + 2 <= opt.max_effects &&
+                               std::isfinite(res.noise_floor.rms) &&
+                               verdict_now == ResidualVerdict::kStructureRemains;
+    DiagnoseRound rd = diagnose_round(runs_in, prepared, model, reid, catalogue, opt, &settled,
+                                      &failure, pair_fallback);
     const EffectKind named = rd.named;
+    const EffectKind named_second = rd.named_second;
     res.rounds.push_back(std::move(rd));
     if (!failure.empty()) {
       res.termination = DiagnoseTermination::kFailure;
@@ -1581,14 +1827,18 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
     model.effects = settled.effects;
     model.scales = settled.scales;
     model.alpha = settled.alpha;
-    model.named.push_back(named);
-    res.effects_named.push_back(named);
-    if (round + 1 < opt.max_effects) {
+    for (EffectKind k : {named, named_second}) {
+      if (k == EffectKind::kNone) continue;
+      model.named.push_back(k);
+      res.effects_named.push_back(k);
+      ++named_so_far;
+    }
+    if (named_so_far < opt.max_effects) {
       // Another round only while structure remains.
       const auto sims = simulate_diagnosed(runs_in, model.effects, model.scales, opt.simulation,
                                            opt.threads, model.alpha);
-      if (judge_residual(residual_series(runs_in, sims), res.noise_floor).verdict ==
-          ResidualVerdict::kExplained) {
+      verdict_now = judge_residual(residual_series(runs_in, sims), res.noise_floor).verdict;
+      if (verdict_now == ResidualVerdict::kExplained) {
         res.termination = DiagnoseTermination::kExplained;
         break;
       }

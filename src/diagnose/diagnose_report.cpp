@@ -46,6 +46,30 @@ std::string candidate_line(const std::string& name, const CandidateScore& c,
                     fmt(c.error_after), note);
 }
 
+/// What a round named: "none", an effect, or a pair "A + B" (the pair fallback).
+std::string round_named_text(const DiagnoseRound& rd) {
+  std::string s = effect_name(rd.named);
+  if (rd.named_second != EffectKind::kNone) s += std::string(" + ") + effect_name(rd.named_second);
+  return s;
+}
+
+/// A candidate row is the named one: its effect was named alone (a pair's row is its own).
+bool named_alone(const DiagnoseRound& rd, const CandidateScore& c) {
+  return c.effect == rd.named && rd.named_second == EffectKind::kNone;
+}
+
+/// "pair: A + B".
+std::string pair_label(const PairScore& p) {
+  return std::string("pair: ") + effect_name(p.kinds[0]) + " + " + effect_name(p.kinds[1]);
+}
+
+/// Both effects' parameters of a pair's fit.
+std::string pair_parameters_text(const PairScore& p) {
+  if (!p.fit.ok) return "–";
+  return effect_parameters_text(p.fit.effects, p.kinds[0]) + "; " +
+         effect_parameters_text(p.fit.effects, p.kinds[1]);
+}
+
 /// run_rms[i], NaN when the location has none for run i.
 double run_rms_at(const ResidualLocation& loc, std::size_t i) {
   return i < loc.run_rms.size() ? loc.run_rms[i] : std::numeric_limits<double>::quiet_NaN();
@@ -155,18 +179,26 @@ std::string DiagnoseResult::full_report() const {
     << (alpha ? "re-identified from the sine runs with the effects" : "the runs' own") << "\n";
   for (std::size_t round = 0; round < rounds.size(); ++round) {
     const DiagnoseRound& rd = rounds[round];
-    s << "Round " << round + 1 << ": " << effect_name(rd.named) << " (RMS " << fmt(rd.error_before)
+    s << "Round " << round + 1 << ": " << round_named_text(rd) << " (RMS " << fmt(rd.error_before)
       << " → " << fmt(rd.error_after) << ")\n"
       << table_line("effect (* named)", "score (CV)", "fold 1", "fold 2", "RMS after",
                     "parameters; note");
     for (const CandidateScore& c : rd.candidates) {
       const std::string params = c.ok ? effect_parameters_text(c.effects, c.effect) : "–";
-      s << candidate_line(std::string(effect_name(c.effect)) + (c.effect == rd.named ? " *" : ""),
+      s << candidate_line(std::string(effect_name(c.effect)) + (named_alone(rd, c) ? " *" : ""),
                           c, params + (c.message.empty() ? "" : "; " + c.message));
     }
     if (rd.none_at_winner_breakpoints) {
       s << candidate_line("none at the winner's breakpoints", *rd.none_at_winner_breakpoints,
                           "the winner must beat this too");
+    }
+    for (const PairScore& p : rd.pairs) {
+      s << candidate_line(pair_label(p) + (p.named ? " *" : ""), p.fit,
+                          pair_parameters_text(p) + (p.fit.message.empty() ? "" : "; " + p.fit.message));
+      if (p.none_at_breakpoints) {
+        s << candidate_line("none at the pair's breakpoints", *p.none_at_breakpoints,
+                            "the pair must beat this too");
+      }
     }
   }
   if (discovered) s << "Discovered term: " << discovered->full_report();
@@ -198,13 +230,13 @@ std::string diagnose_report_markdown(const DiagnoseResult& r, const std::vector<
        "docs/diagnose.md.\n\n";
   for (std::size_t round = 0; round < r.rounds.size(); ++round) {
     const DiagnoseRound& rd = r.rounds[round];
-    s << "### Round " << round + 1 << ": " << effect_name(rd.named) << " (RMS error "
+    s << "### Round " << round + 1 << ": " << round_named_text(rd) << " (RMS error "
       << fmt(rd.error_before) << " → " << fmt(rd.error_after) << ")\n\n"
       << "| effect | score (CV RMS) | fold 1 | fold 2 | RMS after, all runs | parameters | note |\n"
          "|---|---|---|---|---|---|---|\n";
     for (const auto& c : rd.candidates) {
-      s << "| " << (c.effect == rd.named ? "**" + std::string(effect_name(c.effect)) + "**"
-                                         : std::string(effect_name(c.effect)))
+      s << "| " << (named_alone(rd, c) ? "**" + std::string(effect_name(c.effect)) + "**"
+                                       : std::string(effect_name(c.effect)))
         << " | " << fmt(c.score) << " | " << fmt(c.fold_scores[0]) << " | "
         << fmt(c.fold_scores[1]) << " | " << fmt(c.error_after) << " | "
         << (c.ok ? effect_parameters_text(c.effects, c.effect) : "–") << " | " << c.message << " |\n";
@@ -214,6 +246,26 @@ std::string diagnose_report_markdown(const DiagnoseResult& r, const std::vector<
       s << "| none at the winner's breakpoints | " << fmt(t.score) << " | " << fmt(t.fold_scores[0])
         << " | " << fmt(t.fold_scores[1]) << " | " << fmt(t.error_after)
         << " | – | the winner must beat this too |\n";
+    }
+    // The pair fallback (no single effect named while structure remained): each pair fitted
+    // jointly, and `none` at the breakpoints of the best.
+    for (const PairScore& p : rd.pairs) {
+      const std::string label = pair_label(p);
+      s << "| " << (p.named ? "**" + label + "**" : label) << " | " << fmt(p.fit.score) << " | "
+        << fmt(p.fit.fold_scores[0]) << " | " << fmt(p.fit.fold_scores[1]) << " | "
+        << fmt(p.fit.error_after) << " | " << pair_parameters_text(p) << " | " << p.fit.message
+        << " |\n";
+      if (p.none_at_breakpoints) {
+        const CandidateScore& t = *p.none_at_breakpoints;
+        s << "| none at the pair's breakpoints | " << fmt(t.score) << " | " << fmt(t.fold_scores[0])
+          << " | " << fmt(t.fold_scores[1]) << " | " << fmt(t.error_after)
+          << " | – | the pair must beat this too |\n";
+      }
+    }
+    if (!rd.pairs.empty()) {
+      s << "\nNo single effect was named while structure remained, so pairs of the best candidates "
+           "were fitted jointly (two effects can mask each other); a pair is named when it passes "
+           "the tests of a single effect.\n";
     }
     s << "\n";
   }

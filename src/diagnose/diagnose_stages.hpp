@@ -223,6 +223,8 @@ class CandidateFitter {
   /// The output-error parameter blocks of the effects already named and of a new `kind`
   /// (none: no new block), with starts from `e`.
   std::vector<ParamBlock> blocks_with(EffectKind kind, const Effects& e) const;
+  /// … and of several new `kinds` (in order; empty: the named effects' blocks alone).
+  std::vector<ParamBlock> blocks_with(const std::vector<EffectKind>& kinds, const Effects& e) const;
 
   /// Fit: the candidate `kind` (effects `e`, factors from `start_scales`, α-model `alpha`) fitted
   /// by output error on the fit windows together with the model's coefficient factors;
@@ -234,6 +236,13 @@ class CandidateFitter {
   CandidateScore fit(EffectKind kind, const Effects& e, const ModelScales& start_scales,
                      const std::optional<AlphaModel>& alpha, bool searched, bool cv,
                      PendingCrossValidation* later) const;
+
+  /// fit() of several new effects at once (the pair fallback): `kinds` all fitted with the
+  /// named effects and the coefficient factors, from `e`; the score's `effect` is kinds[0]. With
+  /// more than one kind there are no extra starts (`searched` as for fit()).
+  CandidateScore fit_joint(const std::vector<EffectKind>& kinds, const Effects& e,
+                           const ModelScales& start_scales, const std::optional<AlphaModel>& alpha,
+                           bool searched, bool cv, PendingCrossValidation* later) const;
 
   /// Cross-validate: `cand` (fitted on all fit runs: `values` of `blocks`) fitted on each fold
   /// from there and scored on the other; score is the RMS over both held-out folds.
@@ -339,18 +348,67 @@ Choice choose_winner(const CandidateFitter& fitter, const Reidentifier& reid, Di
 /// runs also counts the runs' starts). Returns `winner` improved when the RMS over all runs drops,
 /// else `winner`. Only with options.fit_window_s > 0.
 CandidateScore settle_winner(const CandidateFitter& fitter, const CandidateScore& winner);
+/// … of a winner with several new effects `kinds` (a pair: its parameters all settled).
+CandidateScore settle_winner(const CandidateFitter& fitter, const CandidateScore& winner,
+                             const std::vector<EffectKind>& kinds);
 
 /// The settled winner's RMS over all runs is at most (1 − significance/2) × the round's before.
 bool improves_all_runs(const CandidateScore& settled, double error_before, double significance);
 
+/// Pairs fitted jointly by the fallback at most (each with the iteration limits of a single).
+inline constexpr std::size_t kMaxPairFits = 3;
+
+/// Whether the round's candidate `c` may be one of a pair (try_pairs()): fitted (or searched)
+/// and active, an effect of the catalogue that is searched in the rounds (not `none`, not a
+/// refinement tried only after its parent, not a torque of time) and not already in the model.
+bool pair_eligible(const CandidateScore& c, const RoundModel& model);
+
+/// Candidates of each ranking in the pair fallback's pool (choose_pairs()).
+inline constexpr std::size_t kPairPoolEach = 3;
+
+/// A pair to fit jointly (choose_pairs()): the two candidates (indices into the round's
+/// candidates, the better single score first), the start (both effects) and its α-model.
+struct PairStart {
+  std::array<std::size_t, 2> at{};
+  Effects effects;
+  std::optional<AlphaModel> alpha;
+  /// The start's pooled RMS over the fit runs (unit factors, the α-model re-identified with
+  /// both) [position unit]
+  double screen_rms = std::numeric_limits<double>::quiet_NaN();
+};
+
+/// The pairs try_pairs() fits. The pool: the eligible candidates of the round (pair_eligible())
+/// with the kPairPoolEach lowest training RMS and those with the kPairPoolEach lowest RMS over
+/// all runs. Each pair of the pool is screened: the second's parameters searched like a single
+/// candidate's (search_candidate(): a scan and Nelder-Mead, the α-model re-identified at every
+/// trial) with the first's fitted ones in the model, since a masked effect's own fit is made
+/// without its partner (without re-identification: both fitted sets together, simulated). The
+/// kMaxPairFits pairs of the lowest search RMS are returned, the first's parameters searched
+/// again with the second's found ones (kept when the RMS drops), each with the breakpoint set
+/// that predicts the fit runs best. Empty with fewer than two eligible candidates.
+std::vector<PairStart> choose_pairs(const CandidateFitter& fitter, const Reidentifier& reid,
+                                    const DiagnoseRound& rd);
+
+/// The pair fallback (a round that named nothing while structure remains): the pairs of
+/// choose_pairs() each fitted jointly with the named effects (fit_joint(), from both
+/// candidates' own fitted parameters, the α-model re-identified with both where usable) and
+/// cross-validated; the best is named when it passes the tests of a single winner: beats `none`
+/// in both folds, beats `none` refitted at its breakpoints, and settled on the whole fit runs
+/// cuts the error over all runs by significance/2. Writes rd.pairs; returns the index of the
+/// named pair (then *settled is its settled fit), nullopt when none.
+std::optional<std::size_t> try_pairs(const CandidateFitter& fitter, const Reidentifier& reid,
+                                     DiagnoseRound& rd, CandidateScore* settled);
+
 /// One round with the model `model`: candidates of `catalogue` (`none` first) searched, fitted,
-/// cross-validated and chosen. Returns the round; *settled receives the settled winner when it
-/// names one (rd.named ≠ none); *failure a message when `none` could not be fitted.
+/// cross-validated and chosen; with `pair_fallback`, when nothing is named, try_pairs(). Returns
+/// the round; *settled receives the settled winner when it names one (rd.named ≠ none; a pair:
+/// both effects in it, rd.named_second ≠ none); *failure a message when `none` could not be
+/// fitted.
 DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const PreparedRuns& prepared,
                              const RoundModel& model, const Reidentifier& reid,
                              const std::vector<EffectKind>& catalogue,
                              const DiagnoseOptions& options, CandidateScore* settled,
-                             std::string* failure);
+                             std::string* failure, bool pair_fallback = false);
 
 /// The rounds of diagnose() after the options and runs are checked: the external_disturbance
 /// stage first (when `catalogue` has it), then the rounds and the verdict; returns `res` filled.

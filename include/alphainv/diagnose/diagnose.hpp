@@ -34,13 +34,17 @@
 ///    score is their training RMS, marked). Among candidates within 5 % of
 ///    the best score the one with fewest parameters is taken.
 /// 4. With max_effects > 1 it goes round again with the named effects kept (and refitted),
-///    until a round names `none` or the residual is explained to the noise floor.
+///    until a round names `none` or the residual is explained to the noise floor. When a round
+///    names nothing while structure remains (and max_effects leaves room for two), the pair
+///    fallback fits pairs of the round's best candidates jointly (two effects that mask each
+///    other) and names a pair that passes the same tests (DiagnoseRound::pairs).
 /// 5. With DiagnoseOptions::discover, when structure remains after the named effects: a
 ///    discovered term for the rest (discovered_term.hpp), kept when it cuts the RMS over all runs.
 /// 6. The verdict (verdict.hpp): a noise floor estimated from the data, and whether the residual
 ///    of the final model is explained to it or where structure remains, and how big.
 /// Offline; never throws on what the data cannot support: the result says.
 
+#include <array>
 #include <cstddef>
 #include <limits>
 #include <memory>
@@ -83,7 +87,8 @@ struct DiagnoseRun {
 
 /// Settings of diagnose().
 struct DiagnoseOptions {
-  std::size_t max_effects = 1;  ///< rounds: effects named at most
+  /// Effects named at most (a round names one, or two by the pair fallback when both fit in).
+  std::size_t max_effects = 1;
   unsigned threads = 0;         ///< simulations in parallel; 0: all cores
   SimulationOptions simulation; ///< continuous law or digital loop (loop_period_s > 0)
   std::size_t max_fit_runs = 20;  ///< runs used to fit and score candidates (spread over kinds)
@@ -155,13 +160,32 @@ struct ResidualLocation {
   std::vector<std::string> findings;   ///< the concentrations said in words
 };
 
+/// Two candidates of a round fitted jointly (the pair fallback, DiagnoseRound::pairs): when two
+/// effects mask each other, neither alone beats `none`, but both together do.
+struct PairScore {
+  /// The two effects, in the order of their single scores (the better first).
+  std::array<EffectKind, 2> kinds{{EffectKind::kNone, EffectKind::kNone}};
+  /// The joint fit: both effects' parameters in `effects`, the coefficient factors and α-model
+  /// fitted with them, the cross-validated score and folds, the RMS over all runs (after
+  /// settling, when it was named); `effect` is kinds[0]; `message` says why it was not named.
+  CandidateScore fit;
+  /// `none` refitted with the α-model at the pair's breakpoints (the pair must beat it too).
+  std::optional<CandidateScore> none_at_breakpoints;
+  bool named = false;  ///< the pair passed the tests a single winner must pass
+};
+
 /// One round.
 struct DiagnoseRound {
   EffectKind named = EffectKind::kNone;
+  /// The second effect named in this round: only by the pair fallback (`pairs`); kNone otherwise.
+  EffectKind named_second = EffectKind::kNone;
   std::vector<CandidateScore> candidates;  ///< in catalogue order
   /// `none` refitted with the α-model at the winner's breakpoints (when the winner's α-model was
   /// re-identified): the winner is named only if it beats this too.
   std::optional<CandidateScore> none_at_winner_breakpoints;
+  /// The pairs fitted jointly when no single candidate was named and structure remained (at most
+  /// 3; empty when the fallback did not run): one named at most, then `named`, `named_second`.
+  std::vector<PairScore> pairs;
   double error_before = std::numeric_limits<double>::quiet_NaN();
   double error_after = std::numeric_limits<double>::quiet_NaN();
 };
