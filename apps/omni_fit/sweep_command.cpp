@@ -187,6 +187,9 @@ int run_sweep(const SweepCommandOptions& o) {
     }
     DiagnoseOptions dopt;
     dopt.threads = 1;
+    // The matrix counts the first name: one round (the rounds after it are the confusion
+    // script's, scripts/diagnose_confusion.py, over omni_fit diagnose's default of 3).
+    dopt.max_effects = 1;
     results[ci] = diagnose_dataset(gen.index, gen.runs, dopt);
     const DiagnoseResult& r = results[ci];
     const EffectKind named = r.ok && !r.effects_named.empty() ? r.effects_named.front() : EffectKind::kNone;

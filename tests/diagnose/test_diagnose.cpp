@@ -100,11 +100,13 @@ TEST(Diagnose, OptionsValidateNamingTheField) {
 
 using test::one_pose_dataset;
 
-/// diagnose_dataset() on one_pose_dataset(hidden, seed): it must name `expected` alone and cut
-/// the gap by 30 % or more.
+/// diagnose_dataset() on one_pose_dataset(hidden, seed), one round: it must name `expected` and
+/// cut the gap by 30 % or more.
 DiagnoseResult expect_named(const Effects& hidden, std::uint64_t seed, EffectKind expected) {
   const GeneratedDataset g = one_pose_dataset(hidden, seed);
-  const DiagnoseResult r = diagnose_dataset(g.index, g.runs, DiagnoseOptions{});
+  DiagnoseOptions o;
+  o.max_effects = 1;
+  const DiagnoseResult r = diagnose_dataset(g.index, g.runs, o);
   EXPECT_TRUE(r.ok) << r.message;
   EXPECT_EQ(r.termination, DiagnoseTermination::kMaxEffects);
   EXPECT_EQ(r.effects_named.size(), 1u);

@@ -137,6 +137,7 @@ TEST(DiagnoseReport, ReportsOfARealDiagnosis) {
   const DatasetFit fit = fit_dataset(g.index, g.runs, fo);
   const std::vector<DiagnoseRun> runs = diagnose_runs(g.index, g.runs, fit);
   DiagnoseOptions opt;
+  opt.max_effects = 1;
   opt.simulation = fit.simulation;
   opt.max_fit_runs = 4;
   opt.fit_window_s = 1.5;

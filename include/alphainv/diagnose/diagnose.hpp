@@ -88,7 +88,9 @@ struct DiagnoseRun {
 /// Settings of diagnose().
 struct DiagnoseOptions {
   /// Effects named at most (a round names one, or two by the pair fallback when both fit in).
-  std::size_t max_effects = 1;
+  /// 3, as `omni_fit diagnose --max-effects` and Python's diagnose(): the rounds go on while an
+  /// effect is named and structure remains (1: a single round).
+  std::size_t max_effects = 3;
   unsigned threads = 0;         ///< simulations in parallel; 0: all cores
   SimulationOptions simulation; ///< continuous law or digital loop (loop_period_s > 0)
   std::size_t max_fit_runs = 20;  ///< runs used to fit and score candidates (spread over kinds)
