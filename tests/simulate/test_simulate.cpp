@@ -195,26 +195,39 @@ TEST(SimulateEffects, OffsetTorqueGivesClosedFormSteadyStateError) {
   }
 }
 
-TEST(SimulateEffects, DelayMatchesTheClosedFormFrequencyResponse) {
-  // θ/r = β e^{−jωτ} / (β e^{−jωτ} − ω² + jωC), β = β̃·kp.
+/// The steady-state response to r = 0.07 sin(2π·3t) of the paper's pose with a delay `tau_s`,
+/// checked against the closed form θ/r = β e^{−jωτ} / (β e^{−jωτ} − ω² + jωC), β = β̃·kp, with
+/// the default 1 ms steps: v(t − τ) is interpolated linearly between commands at most a step
+/// apart, an error of order (ωh)²/8 ≈ 5e-5. Returns the fitted sine.
+SineFit expect_delay_response_matches_closed_form(double tau_s) {
   JointModelAtPose m = paper_pose_model(false);
-  m.effects.delay_s = 0.004;
+  m.effects.delay_s = tau_s;
   Controller ctl;
-  const double ar = 0.07, f = 3.0, w = 2 * M_PI * f, tau = 0.004;
+  const double ar = 0.07, f = 3.0, w = 2 * M_PI * f;
   const double c = m.c_linear, beta = m.beta_tilde_linear * ctl.kp;
-  const std::complex<double> num = beta * std::exp(std::complex<double>(0, -w * tau));
+  const std::complex<double> num = beta * std::exp(std::complex<double>(0, -w * tau_s));
   const std::complex<double> h = num / (num - w * w + std::complex<double>(0, w * c));
   const SineReference ref(ar, f);
   const auto times = uniform_times(10.0, 1e-3);
   const SimulationResult res = simulate(m, ctl, ref, times);
-  ASSERT_TRUE(res.ok) << res.message;
+  EXPECT_TRUE(res.ok) << res.message;
+  if (!res.ok) return {};
   const IndexRange win = steady_state_window(times, f, 7.0);
   const SineFit fit = fit_sine(times.data() + win.begin, res.theta.data() + win.begin, win.size(), w);
-  // v(t − τ) is interpolated linearly between 1 ms steps: an error of order (ωh)²/8 ≈ 5e-5.
-  EXPECT_NEAR(fit.a1, ar * h.imag(), 5e-4 * ar);
-  EXPECT_NEAR(fit.a2, ar * h.real(), 5e-4 * ar);
+  EXPECT_NEAR(fit.a1, ar * h.imag(), 5e-4 * ar) << "tau " << tau_s << " s";
+  EXPECT_NEAR(fit.a2, ar * h.real(), 5e-4 * ar) << "tau " << tau_s << " s";
+  return fit;
+}
+
+TEST(SimulateEffects, DelayMatchesTheClosedFormFrequencyResponse) {
+  const SineFit fit = expect_delay_response_matches_closed_form(0.004);
+  JointModelAtPose m = paper_pose_model(false);
+  Controller ctl;
+  const double ar = 0.07, f = 3.0, w = 2 * M_PI * f;
+  const SineReference ref(ar, f);
+  const auto times = uniform_times(10.0, 1e-3);
+  const IndexRange win = steady_state_window(times, f, 7.0);
   // Without the delay the phase is smaller: the delay is really there.
-  m.effects.delay_s = 0.0;
   const SimulationResult nodelay = simulate(m, ctl, ref, times);
   const SineFit f0 = fit_sine(times.data() + win.begin, nodelay.theta.data() + win.begin, win.size(), w);
   EXPECT_GT(std::abs(fit.a1 - f0.a1), 0.05 * ar);
@@ -225,6 +238,40 @@ TEST(SimulateEffects, DelayMatchesTheClosedFormFrequencyResponse) {
   const SimulationResult bad = simulate(m, ctl, ref, times, {}, cv);
   EXPECT_FALSE(bad.ok);
   EXPECT_NE(bad.message.find("delay"), std::string::npos);
+}
+
+TEST(SimulateEffects, DelayShorterThanAStepMatchesTheClosedFormFrequencyResponse) {
+  // τ = 0.4 ms inside the 1 ms steps: v(t − τ) between the command at the step's start and the
+  // command at t, as accurate as between two steps' commands (the 4 ms test above).
+  expect_delay_response_matches_closed_form(0.0004);
+}
+
+TEST(SimulateEffects, DelayMuchShorterThanAStepTakesTheStepsOfNoDelay) {
+  // The RK4 steps do not depend on τ: a fit's finite-difference Jacobian steps a delay from its
+  // bound 0 to ~1e-8 s, and steps bounded by τ made that one simulation cost 1/τ steps (10⁸ on
+  // a pendulum run). As τ → 0 the simulation tends to that without delay.
+  JointModelAtPose m = paper_pose_model(true);
+  Controller ctl;
+  const SineReference ref(0.07, 3.0);
+  const auto times = uniform_times(0.2, 1e-3);
+  const SimulationResult none = simulate(m, ctl, ref, times);
+  ASSERT_TRUE(none.ok) << none.message;
+  double largest_theta_dot = 0.0;
+  for (double x : none.theta_dot) largest_theta_dot = std::max(largest_theta_dot, std::abs(x));
+  double diff_before = 0.0;
+  for (double tau_s : {1e-6, 1e-7}) {
+    m.effects.delay_s = tau_s;
+    const SimulationResult tiny = simulate(m, ctl, ref, times);
+    ASSERT_TRUE(tiny.ok) << tiny.message;
+    EXPECT_EQ(tiny.rhs_evaluations, none.rhs_evaluations) << tau_s;
+    // First order in τ: the command lags by τ, θ by about τ·θ̇ (times the loop's gain).
+    const double diff = max_abs_diff(tiny.theta, none.theta);
+    EXPECT_LT(diff, 10.0 * tau_s * largest_theta_dot) << tau_s;
+    if (diff_before > 0.0) {
+      EXPECT_LT(diff, 0.2 * diff_before) << tau_s;  // tends to no delay as τ → 0
+    }
+    diff_before = diff;
+  }
 }
 
 TEST(SimulateEffects, SaturationGivesTheOpenLoopRampWhileSaturated) {

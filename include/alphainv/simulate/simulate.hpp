@@ -115,8 +115,9 @@ struct InitialState {
 };
 
 /// Simulates from times.front() and reports at each entry of `times_s` (strictly increasing).
-/// A time delay in model.effects needs the fixed-point RK4 integrator (its steps are then limited
-/// to the delay, and v(t − τ) is interpolated from the steps taken) or the digital loop.
+/// A time delay in model.effects needs the fixed-point RK4 integrator (v(t − τ) is interpolated
+/// linearly between the commands at the starts of the steps taken and, for τ shorter than a step,
+/// the command at t; the steps do not depend on τ) or the digital loop.
 /// `known_inputs` (a disturbance d(t) and the motor enable e(t), known_inputs.hpp) enter the
 /// plant's input u of plant_input.hpp: held over each RK4 step at their value at the step's middle
 /// (their zero-order hold when their samples are output times), at each tick of the digital loop,
