@@ -326,6 +326,7 @@ struct DiagnoseOutcome {
         pd["parameters"] = effect_parameters_text(p.fit.effects, p.kinds[0]) + "; " +
                            effect_parameters_text(p.fit.effects, p.kinds[1]);
         pd["named"] = p.named;
+        pd["dropped"] = effect_name(p.dropped);  // a member that added nothing ("none": both kept)
         pairs.append(pd);
       }
       d["pairs"] = pairs;

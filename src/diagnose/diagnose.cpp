@@ -1451,6 +1451,23 @@ std::vector<PairStart> choose_pairs(const CandidateFitter& fitter, const Reident
   return screened;
 }
 
+Effects without_member(const Effects& e, EffectKind kind) {
+  Effects out = e;
+  const Effects off;
+  for (const auto& p : effect_parameters(kind, true)) out.*(p.member) = off.*(p.member);
+  return out;
+}
+
+double rms_without_member(const CandidateFitter& fitter, const CandidateScore& settled,
+                          EffectKind kind) {
+  const std::vector<std::size_t>& all = fitter.prepared().all;
+  const std::vector<DiagnoseRun>& runs = fitter.runs_in();
+  return pooled_rms(runs,
+                    run_rms_with(runs, all, without_member(settled.effects, kind), settled.scales,
+                                 fitter.options(), settled.alpha),
+                    all);
+}
+
 std::optional<std::size_t> try_pairs(const CandidateFitter& fitter, const Reidentifier& reid,
                                      DiagnoseRound& rd, CandidateScore* settled) {
   const PreparedRuns& prepared = fitter.prepared();
@@ -1533,6 +1550,42 @@ std::optional<std::size_t> try_pairs(const CandidateFitter& fitter, const Reiden
     f.message = "settled on the whole fit runs, the RMS over all runs " + num(s.error_after, "%.4g") +
                 " is not below (1 − significance/2) × " + num(rd.error_before, "%.4g");
     return std::nullopt;
+  }
+  // Each member must be needed: the settled pair's RMS over all runs at most (1 − significance/2)
+  // × that of the same model with the member off (a joint fit can carry a passenger that moved
+  // nothing: EMPS's offset + a saturation at 4.06 V, the RMS the same to 16 digits without it).
+  const std::array<double, 2> without = {rms_without_member(fitter, s, ps.kinds[0]),
+                                         rms_without_member(fitter, s, ps.kinds[1])};
+  const auto needed = [&](std::size_t m) {
+    return !std::isfinite(without[m]) ||
+           s.error_after <= (1.0 - 0.5 * opt.significance) * without[m];
+  };
+  if (!needed(0) || !needed(1)) {
+    // The member whose removal costs least is dropped; the other is named alone when, settled
+    // alone on the whole fit runs (from the pair's values), it passes a single winner's last test.
+    const std::size_t drop =
+        needed(0) != needed(1) ? (needed(0) ? 1 : 0) : (without[0] <= without[1] ? 0 : 1);
+    const std::size_t keep = 1 - drop;
+    const std::string why = std::string(effect_name(ps.kinds[drop])) +
+                            " adds nothing over all runs (RMS " + num(s.error_after, "%.4g") +
+                            " with it, " + num(without[drop], "%.4g") + " without)";
+    CandidateScore alone = s;
+    alone.effect = ps.kinds[keep];
+    alone.effects = without_member(s.effects, ps.kinds[drop]);
+    alone.error_after = without[drop];
+    const CandidateScore s1 = settle_winner(fitter, alone, {ps.kinds[keep]});
+    if (!improves_all_runs(s1, rd.error_before, opt.significance)) {
+      f.message = why + "; " + effect_name(ps.kinds[keep]) + " alone does not cut the RMS over all runs " +
+                  num(rd.error_before, "%.4g") + " by significance/2";
+      return std::nullopt;
+    }
+    f = s1;
+    f.message = "named " + std::string(effect_name(ps.kinds[keep])) + " alone from the pair: " + why +
+                (s1.message.empty() ? std::string() : "; " + s1.message);
+    ps.named = true;
+    ps.dropped = ps.kinds[drop];
+    *settled = s1;
+    return best;
   }
   f = s;
   f.message = "named as a pair (neither alone was named)" +
@@ -1622,8 +1675,10 @@ DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const Prep
     const std::optional<std::size_t> named_pair =
         pair_fallback ? try_pairs(fitter, reid, rd, &pair) : std::nullopt;
     if (named_pair) {
-      rd.named = rd.pairs[*named_pair].kinds[0];
-      rd.named_second = rd.pairs[*named_pair].kinds[1];
+      const PairScore& named = rd.pairs[*named_pair];
+      // Both, or the one kept when the other added nothing (PairScore::dropped).
+      rd.named = named.dropped == named.kinds[0] ? named.kinds[1] : named.kinds[0];
+      rd.named_second = named.dropped == EffectKind::kNone ? named.kinds[1] : EffectKind::kNone;
       rd.error_after = pair.error_after;
       *settled = std::move(pair);
       return rd;

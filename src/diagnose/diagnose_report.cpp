@@ -1,6 +1,7 @@
 #include "alphainv/diagnose/diagnose_report.hpp"
 #include "alphainv/diagnose/discovered_term.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -55,7 +56,8 @@ std::string round_named_text(const DiagnoseRound& rd) {
 
 /// A candidate row is the named one: its effect was named alone (a pair's row is its own).
 bool named_alone(const DiagnoseRound& rd, const CandidateScore& c) {
-  return c.effect == rd.named && rd.named_second == EffectKind::kNone;
+  return c.effect == rd.named && rd.named_second == EffectKind::kNone &&
+         std::none_of(rd.pairs.begin(), rd.pairs.end(), [](const PairScore& p) { return p.named; });
 }
 
 /// "pair: A + B".

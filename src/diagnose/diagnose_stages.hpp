@@ -396,8 +396,19 @@ std::vector<PairStart> choose_pairs(const CandidateFitter& fitter, const Reident
 /// in both folds, beats `none` refitted at its breakpoints, and settled on the whole fit runs
 /// cuts the error over all runs by significance/2. Writes rd.pairs; returns the index of the
 /// named pair (then *settled is its settled fit), nullopt when none.
+/// Each member of the named pair must be needed: the settled pair's RMS over all runs at most
+/// (1 − significance/2) × rms_without_member() of it; otherwise the member whose removal costs
+/// least is dropped (PairScore::dropped) and the other named alone when, settled alone from the
+/// pair's values, it passes improves_all_runs().
 std::optional<std::size_t> try_pairs(const CandidateFitter& fitter, const Reidentifier& reid,
                                      DiagnoseRound& rd, CandidateScore* settled);
+
+/// `e` with the parameters of `kind` at their defaults (the effect off).
+Effects without_member(const Effects& e, EffectKind kind);
+/// The RMS over all runs [position unit] of `settled`'s model (effects, factors, α-model) with
+/// the effect `kind` off.
+double rms_without_member(const CandidateFitter& fitter, const CandidateScore& settled,
+                          EffectKind kind);
 
 /// One round with the model `model`: candidates of `catalogue` (`none` first) searched, fitted,
 /// cross-validated and chosen; with `pair_fallback`, when nothing is named, try_pairs(). Returns

@@ -174,6 +174,9 @@ struct PairScore {
   /// `none` refitted with the α-model at the pair's breakpoints (the pair must beat it too).
   std::optional<CandidateScore> none_at_breakpoints;
   bool named = false;  ///< the pair passed the tests a single winner must pass
+  /// A member that added nothing over all runs when the pair was named: the other was named
+  /// alone (`fit` is then its settled fit); kNone when both were named.
+  EffectKind dropped = EffectKind::kNone;
 };
 
 /// One round.
