@@ -154,7 +154,6 @@ ControlLoop::ControlLoop(const ControlLoopConfig& config)
     : config_((config.validate(), config)),
       estimator_(estimator_for(config)),
       compensator_(config.compensation, config.effects, config.period_s),
-      torque_effects_(config.effects),
       kp_(config.kp) {
   estimator_.reset(0.0);
   // C·I and β̃·I against α: the model's breakpoint values 1/C_n1, 1/β̃_n1 (eqs. (40), (42)).
@@ -169,9 +168,6 @@ ControlLoop::ControlLoop(const ControlLoopConfig& config)
   beta_line_ = HeldLine::through(m.beta_alpha.data(), b_i, 2);
   beta_i_min_ = std::min(b_i[0], b_i[1]);
   set_reference(wave_, 0.0, false);  // the sine's constants
-  for (const EffectSpec& spec : kEffectCatalogue) {
-    if (spec.role == EffectRole::kTorque && spec.active(config_.effects)) has_torque_effects_ = true;
-  }
   const double ticks = std::round(config_.effects.delay_s / config_.period_s);
   delay_ticks_ = static_cast<std::size_t>(std::min(ticks, static_cast<double>(kMaxDelayTicks)));
 }
@@ -278,13 +274,11 @@ void ControlLoop::supervise(const device::ReadResult& input, bool deadline_misse
   const double theta = sc.angle_rad(0, in.encoder_counts[0]);
   if (have_report_ && std::abs(theta - theta_) > s.max_theta_step_rad) latch(Fault::kEncoderJump);
   if (!(std::abs(theta) <= s.theta_limit_rad)) latch(Fault::kAngleLimit);
-  theta_prev_ = theta_;
   theta_ = theta;
   gamma1_ = sc.angle_rad(1, in.encoder_counts[1]);
   gamma2_ = sc.angle_rad(2, in.encoder_counts[2]);
   if (!have_report_) {
     have_report_ = true;
-    theta_prev_ = theta;
     if (wave_.kind == WaveKind::kHold) wave_.offset_rad = theta;
   }
 }
@@ -303,7 +297,6 @@ TickRecord ControlLoop::tick(double t_s, const device::ReadResult& input, bool d
   rec.sequence = last_sequence_;
   rec.new_report = new_report;
   rec.deadline_missed = deadline_missed;
-  rec.theta_pred_rad = have_pred_ && new_report ? theta_pred_next_ : theta_;
   rec.fault = fault_;
   const CompensationMode mode = config_.compensation.mode;
   const bool ff = feeds_forward(mode);
@@ -325,9 +318,6 @@ TickRecord ControlLoop::tick(double t_s, const device::ReadResult& input, bool d
     out_report = safe_report();
     compensator_.reset();
     v_prev_ = 0.0;
-    u_prev_ = 0.0;
-    have_prev_tick_ = false;
-    have_pred_ = false;
     have_raw_target_ = have_reference_ = false;
     rec.r_rad = fault_ != Fault::kNone ? rec.r_rad : theta_;
     return rec;
@@ -393,44 +383,7 @@ TickRecord ControlLoop::tick(double t_s, const device::ReadResult& input, bool d
   c_last_ = c;
   beta_last_ = beta;
 
-  // One-step prediction from eq. (37), θ̈ + C θ̇ = β̃ v, exact over a tick with C, β̃, v held:
-  //   θ(T) = θ0 + θ̇0·a + (β̃v/C)(T − a),  θ̇(T) = θ̇0·e + (β̃v/C)(1 − e),  e = exp(−CT),
-  //   a = (1 − e)/C.
-  // θ̇_k comes from the last two measurements and the previous tick's command and model; e and a
-  // of the previous tick's C are the previous tick's (reused), those of C when C changed.
-  // Two divisions per tick (1/C and 1/a), off the chain from the previous tick's u to this one's:
-  // β̃/C and 1/a are the previous tick's (a product by them is the quotient to rounding).
-  const double T = config_.period_s;
-  double e = e_prev_, a = a_prev_, inv_a = inv_a_prev_;
-  if (c > 0.0 && !(c == c_prev_ && c_prev_ > 0.0)) {
-    e = std::exp(-c * T);
-    a = (1.0 - e) / c;
-    inv_a = 1.0 / a;
-  }
-  const double gain = beta / c;  // β̃/C: u·β̃/C is the steady velocity
-  if (new_report && have_prev_tick_ && c > 0.0 && c_prev_ > 0.0) {
-    const double g_prev = gain_prev_ * u_prev_;
-    const double theta_dot_prev = (theta_ - theta_prev_ - g_prev * (T - a_prev_)) * inv_a_prev_;
-    const double theta_dot = theta_dot_prev * e_prev_ + g_prev * (1.0 - e_prev_);
-    // u: the command through the effects plus their torque n(θ, θ̇), held over the tick.
-    const double u =
-        v_model + (has_torque_effects_ ? plant_torque(torque_effects_, t_s, theta_, theta_dot) : 0.0);
-    theta_pred_next_ = theta_ + theta_dot * a + (gain * u) * (T - a);
-    u_prev_ = u;
-    have_pred_ = true;
-  } else {
-    have_pred_ = false;
-  }
-  if (!have_pred_) {
-    u_prev_ = v_model + (has_torque_effects_ ? plant_torque(torque_effects_, t_s, theta_, 0.0) : 0.0);
-  }
-  have_prev_tick_ = new_report;
   v_prev_ = v;
-  c_prev_ = c;
-  gain_prev_ = gain;
-  e_prev_ = c > 0.0 ? e : 1.0;  // those of c_prev_ whenever c_prev_ > 0
-  a_prev_ = c > 0.0 ? a : 0.0;
-  inv_a_prev_ = c > 0.0 ? inv_a : 0.0;
 
   rec.command_v = v;
   rec.alpha = alpha;

@@ -64,7 +64,8 @@ LoopRunner::LoopRunner(Transport& transport, const rt::ControlLoopConfig& config
       options_(std::move(options)),
       commands_(64),
       records_(options_.ring_capacity),
-      stream_(256) {
+      stream_(256),
+      predictor_(loop_.config()) {
   kp_.store(loop_.kp());
   writer_ = std::thread([this] { writer_main(); });
 }
@@ -219,13 +220,14 @@ LoopOutcome LoopRunner::run(const std::atomic<bool>& stop) {
     ++ticks;
     ticks_.store(ticks, std::memory_order_relaxed);
     misses_.store(misses, std::memory_order_relaxed);
-    (void)stream_.push(rec);
-    if (run_active) {
+    {  // every tick, for the prediction and the stream; the run's rows for its recording
       RecordItem item;
       item.record = rec;
+      item.tick = ticks;
+      item.in_run = run_active;
       item.run_id = run_id;
       item.run_start_s = run_start_s;
-      if (!records_.push(item)) ++dropped;
+      if (!records_.push(item) && run_active) ++dropped;
     }
 
     // Commands: a pending run starts once there is a measurement to centre it on.
@@ -348,11 +350,19 @@ RunRecorder& LoopRunner::recorder(std::uint32_t run_id) {
 
 void LoopRunner::writer_main() {
   RecordItem item;
+  long last_tick = 0;  // ticks count from 1
   for (;;) {
     bool any = false;
     while (records_.pop(item)) {
       any = true;
       if (item.end == 0) {
+        // The model's prediction (off the real-time thread): from every tick in order; after
+        // rows dropped for a full ring it starts afresh.
+        if (item.tick != last_tick + 1) predictor_.reset();
+        last_tick = item.tick;
+        predictor_.add(item.record);
+        (void)stream_.push(item.record);
+        if (!item.in_run) continue;
         RunRecorder* rec = nullptr;  // only this thread changes partial_: it outlives the lock
         {
           std::lock_guard<std::mutex> lock(mutex_);

@@ -16,6 +16,7 @@
 #include "alphainv/device/sim_transport.hpp"
 #include "alphainv/error.hpp"
 #include "alphainv/device/control_loop.hpp"
+#include "alphainv/device/one_step_predictor.hpp"
 #include "alphainv/rt/latency_histogram.hpp"
 #include "alphainv/rt/spsc_ring.hpp"
 
@@ -38,15 +39,18 @@ struct Trace {
 };
 
 /// Runs `ticks` ticks of `loop` on `t`, starting `wave` at tick 1; `missed_from`: ticks from which
-/// every deadline counts as missed.
+/// every deadline counts as missed. Each record gets its prediction (OneStepPredictor), as the
+/// runner's writer thread gives it.
 Trace run(ControlLoop& loop, SimTransport& t, const Waveform& wave, int ticks,
           int missed_from = 1 << 30) {
   Trace trace;
+  OneStepPredictor predictor(loop.config());
   const double T = loop.config().period_s;
   for (int k = 0; k < ticks; ++k) {
     const ReadResult in = t.read_latest();
     OutputReport out;
     trace.records.push_back(loop.tick(k * T, in, k >= missed_from, out));
+    predictor.add(trace.records.back());
     if (t.write(out) != IoStatus::kOk) loop.latch(Fault::kDisconnected);
     trace.written.push_back(out);
     if (k == 0) loop.set_reference(wave, T, true);
@@ -105,11 +109,13 @@ TEST(ControlLoop, ModelQuantitiesEqualThePlantsAndThePredictionMatchesIt) {
   SimTransport t(VirtualOmniParams{}, c.scaling);
   const VirtualOmni& plant = t.device().plant();
   const double T = c.period_s;
+  OneStepPredictor predictor(c);
   double max_pred_error = 0.0;
   for (int k = 0; k < 2000; ++k) {
     const ReadResult in = t.read_latest();
     OutputReport out;
-    const TickRecord rec = loop.tick(k * T, in, false, out);
+    TickRecord rec = loop.tick(k * T, in, false, out);
+    predictor.add(rec);
     ASSERT_EQ(rec.fault, Fault::kNone);
     ASSERT_EQ(t.write(out), IoStatus::kOk);
     if (k == 0) loop.set_reference(sine(0.07, 3.0), T, true);
@@ -370,6 +376,7 @@ std::vector<TickRecord> golden_ticks(CompensationMode mode) {
   c.effects.deadzone_v = 0.01;
   c.compensation.mode = mode;
   ControlLoop loop{c};
+  OneStepPredictor predictor(c);  // the prediction, made off the tick since the split
   ReadResult in;
   in.status = IoStatus::kOk;
   in.reports_read = 1;
@@ -380,6 +387,7 @@ std::vector<TickRecord> golden_ticks(CompensationMode mode) {
     in.report.encoder_counts[0] = static_cast<std::int32_t>(400.0 * std::sin(6.0 * t));
     OutputReport out;
     records.push_back(loop.tick(t, in, false, out));
+    predictor.add(records.back());
     if (k == 0) loop.set_reference(Waveform{WaveKind::kSine, 0.07, 3.0, 0.0}, 0.0, true);
     if (k == 200) loop.set_reference(Waveform{WaveKind::kStep, 0.05, 0.0, 0.0}, t, true);
   }

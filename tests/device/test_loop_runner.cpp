@@ -2,6 +2,7 @@
 // the timing statistics, and stays complete when a fault or a stop request ends it.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -9,6 +10,7 @@
 #include <filesystem>
 #include <mutex>
 #include <thread>
+#include <vector>
 
 #include "support/counting_allocator.hpp"
 #include "support/files.hpp"
@@ -74,6 +76,23 @@ TEST(LoopRunner, RecordsARunThatReadsBack) {
   EXPECT_LE(run.size(), 500u);
   for (const char* col : {"alpha", "C", "beta_tilde", "theta_pred", "gamma1", "gamma2"}) {
     EXPECT_NE(run.column(col), nullptr) << col;
+  }
+  // theta_pred, made by the writer thread (OneStepPredictor) from every tick: the model's
+  // prediction one tick ahead beats holding the previous θ several times over (the model is the
+  // plant's; what is left is the encoder's quantisation).
+  {
+    const std::vector<double>& pred = *run.column("theta_pred");
+    std::vector<double> pred_error, hold_error;
+    for (std::size_t k = 1; k < run.size(); ++k) {
+      pred_error.push_back(std::abs(pred[k] - run.theta[k]));
+      hold_error.push_back(std::abs(run.theta[k] - run.theta[k - 1]));
+    }
+    const auto median = [](std::vector<double> x) {
+      std::nth_element(x.begin(), x.begin() + x.size() / 2, x.end());
+      return x[x.size() / 2];
+    };
+    EXPECT_LT(median(pred_error), 0.2 * median(hold_error));
+    EXPECT_GT(median(hold_error), 0.0);
   }
   EXPECT_GE(run.t.front(), 0.0);  // 0 unless the loop skipped the run's first deadline
   // r is the sine about the starting position (0), sampled at the recorded t.

@@ -5,8 +5,9 @@
 /// effects cancelled, the α-model fed forward along the reference, a jump of the reference
 /// followed along a cycloid the clamp allows), behind its clamp and slew limit, the streaming α of
 /// the command history (eq. (33)), C(α, I) and
-/// β̃(α, I) (eqs. (38)-(42)) with I(γ1, γ2) from the measured pose (eq. (6)), and the model's
-/// one-step prediction of θ (eq. (37) over one tick with the command held).
+/// β̃(α, I) (eqs. (38)-(42)) with I(γ1, γ2) from the measured pose (eq. (6)). The model's
+/// one-step prediction of θ, a monitoring quantity the command does not use, is made off the
+/// real-time thread from the records (one_step_predictor.hpp).
 ///
 /// Split like ros2_control: the constructor validates and allocates nothing on the heap after it
 /// returns; tick(), set_reference(), set_kp() are noexcept and real-time safe.
@@ -21,7 +22,6 @@
 #include "alphainv/device/transport.hpp"
 #include "alphainv/model/effects.hpp"
 #include "alphainv/model/inertia_model.hpp"
-#include "alphainv/model/torque_effects.hpp"
 #include "alphainv/rt/alpha_estimator.hpp"
 
 namespace alphainv::rt {
@@ -119,9 +119,10 @@ struct ControlLoopConfig {
   AlphaEstimatorConfig estimator{};              ///< its sample_period_s is set to period_s
   InertiaModel inertia = paper_inertia_model();  ///< I(γ1, γ2), eq. (6)
   AlphaModel model = paper_alpha_model();        ///< C(α, I), β̃(α, I), eqs. (38)-(42)
-  /// Effects of the model (effects.hpp; model.json's "effects", e.g. from omni_fit diagnose): the
-  /// prediction uses u = S(Z(v(t − τ))) + n(θ, θ̇) for v, and α̂ is that of S(Z(v(t − τ))).
-  /// The delay is rounded to whole ticks, at most kMaxDelayTicks.
+  /// Effects of the model (effects.hpp; model.json's "effects", e.g. from omni_fit diagnose): α̂
+  /// is that of S(Z(v(t − τ))), the compensation cancels them, and the prediction
+  /// (one_step_predictor.hpp) uses u = S(Z(v(t − τ))) + n(θ, θ̇) for v. The delay is rounded to
+  /// whole ticks, at most ControlLoop::kMaxDelayTicks.
   Effects effects;
   device::ReportScaling scaling;                 ///< counts ↔ rad, V ↔ DAC counts
   /// What is added to the P law (off by default): `effects` cancelled, the α-model fed forward.
@@ -145,7 +146,9 @@ struct TickRecord {
   double damping = 0.0;          ///< C(α̂, I) [1/s]
   double beta_tilde = 0.0;       ///< β̃(α̂, I) [rad/s² per V]
   double inertia = 0.0;          ///< I(γ1, γ2)
-  double theta_pred_rad = 0.0;   ///< the model's prediction of this θ, made one tick earlier [rad]
+  /// The model's prediction of this θ, made one tick earlier [rad]: filled off the real-time
+  /// thread by OneStepPredictor::add() (the tick leaves it 0).
+  double theta_pred_rad = 0.0;
   double wake_latency_s = 0.0;   ///< wake-up time minus the deadline [s] (set by the runner)
   double period_jitter_s = 0.0;  ///< |wake-up − previous wake-up − T| [s] (set by the runner)
   double read_s = 0.0;           ///< duration of read_latest() [s] (set by the runner)
@@ -196,6 +199,9 @@ class ControlLoop {
   const Waveform& waveform() const noexcept { return wave_; }
   const ControlLoopConfig& config() const noexcept { return config_; }
 
+  /// The longest model delay the command history holds [ticks].
+  static constexpr std::size_t kMaxDelayTicks = 1023;
+
  private:
   void supervise(const device::ReadResult& input, bool deadline_missed) noexcept;
 
@@ -228,14 +234,6 @@ class ControlLoop {
   /// record into a `rep stos`, whose start-up cost was 9 % of the tick (perf), and a copy of a
   /// member it cannot see into into nine SSE moves.
   TickRecord blank_record_{};
-  /// The model's torque effects, their constants precomputed (torque_effects.hpp), for the
-  /// prediction's n(θ, θ̇).
-  TorqueEffects torque_effects_;
-  /// The model has a torque effect (else the prediction skips n(θ, θ̇) = 0).
-  bool has_torque_effects_ = false;
-  /// exp(−C_prev·T), a = (1 − e)/C_prev and 1/a of the previous tick's prediction (reused by
-  /// this one).
-  double e_prev_ = 1.0, a_prev_ = 0.0, inv_a_prev_ = 0.0;
   double alpha_prev_ = 0.0;  ///< the previous tick's α̂ (for the feedforward)
   /// The previous tick's C(α̂, I) and β̃(α̂, I) (the feedforward's; 0 before the first tick).
   double c_last_ = 0.0, beta_last_ = 0.0;
@@ -248,19 +246,12 @@ class ControlLoop {
   int ticks_without_report_ = 0;
   int consecutive_misses_ = 0;
   std::uint16_t out_sequence_ = 0;
-  double theta_ = 0.0, theta_prev_ = 0.0, gamma1_ = 0.0, gamma2_ = 0.0;
-  // The previous tick's model quantities, for the velocity estimate of the prediction.
-  bool have_prev_tick_ = false;
-  double v_prev_ = 0.0, c_prev_ = 0.0;
-  double gain_prev_ = 0.0;  ///< β̃/C of the previous tick
-  double u_prev_ = 0.0;  ///< the previous tick's model input u (command through the effects)
+  double theta_ = 0.0, gamma1_ = 0.0, gamma2_ = 0.0;
+  double v_prev_ = 0.0;  ///< the previous tick's command (the slew limit)
   /// Commands sent, for the model's delay (a ring; no allocation in the tick).
-  static constexpr std::size_t kMaxDelayTicks = 1023;
   std::array<double, kMaxDelayTicks + 1> v_history_{};
   std::size_t v_head_ = 0;
   std::size_t delay_ticks_ = 0;
-  double theta_pred_next_ = 0.0;
-  bool have_pred_ = false;
 };
 
 }  // namespace alphainv::rt

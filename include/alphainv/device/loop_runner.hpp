@@ -3,11 +3,13 @@
 /// The 1 kHz loop around rt::ControlLoop: absolute deadlines (clock_nanosleep, TIMER_ABSTIME),
 /// SCHED_FIFO and mlockall when permitted (a warning and a fallback when not), the transport's
 /// read and write each tick, commands into the loop and tick records out of it through lock-free
-/// SPSC rings, a writer thread that hands the records of a run to its RunRecorder (recording.hpp:
-/// the alphainv-dataset/1 folder), and the timing statistics (wake-up latency p50/p99/p99.9/max, deadline misses, read/write
+/// SPSC rings, a writer thread that makes the model's one-step prediction of every tick
+/// (one_step_predictor.hpp, off the real-time thread), hands the records of a run to its
+/// RunRecorder (recording.hpp: the alphainv-dataset/1 folder) and streams the newest, and the timing statistics (wake-up latency p50/p99/p99.9/max, deadline misses, read/write
 /// times).
 ///
-/// Each tick: read_latest() → ControlLoop::tick() → write() → push the record → pop commands.
+/// Each tick: read_latest() → ControlLoop::tick() → write() → push the record (every tick, in a
+/// run or not: the prediction needs them all) → pop commands.
 /// No allocation, no locks and no I/O other than the device's in the tick (run()'s loop body).
 /// On a fault the tick writes a zero, disabled report at once; on exit (fault, stop request, end
 /// of the run) a second one; then the writer thread flushes the recording (dataset.json last,
@@ -25,6 +27,7 @@
 #include <vector>
 
 #include "alphainv/device/control_loop.hpp"
+#include "alphainv/device/one_step_predictor.hpp"
 #include "alphainv/device/recording.hpp"
 #include "alphainv/device/timing_stats.hpp"
 #include "alphainv/device/transport.hpp"
@@ -106,8 +109,9 @@ class LoopRunner {
   /// Runs the loop on the calling thread (see the file comment) until `stop` becomes true, a
   /// fault, or (exit_when_idle) the end of a run. Call request_realtime() on this thread first.
   LoopOutcome run(const std::atomic<bool>& stop);
-  /// Pops the newest tick records pushed for streaming into `out` (keeps the last); false when
-  /// none arrived since the last call. One consumer thread.
+  /// Pops the newest tick records the writer thread streamed (with their prediction; a few ms
+  /// behind the loop) into `out` (keeps the last); false when none arrived since the last call.
+  /// One consumer thread.
   bool latest(rt::TickRecord& out);
   /// Waits up to timeout_s for run `run_id`'s result and hands it over (a second call for the same
   /// run waits in vain). Any thread.
@@ -131,6 +135,8 @@ class LoopRunner {
     std::uint32_t run_id = 0;
     double run_start_s = 0.0;  ///< loop time at which the run's waveform starts (t = 0) [s]
     std::uint8_t end = 0;      ///< 1: end of run (record.fault says why), 2: stopped by request
+    bool in_run = false;       ///< the tick belongs to run run_id (else the loop was idle)
+    long tick = 0;             ///< the tick's index since the loop started (a gap: rows dropped)
     long dropped = 0;          ///< at end: rows dropped for a full ring
   };
   void writer_main();
@@ -141,7 +147,8 @@ class LoopRunner {
   LoopRunnerOptions options_;
   rt::SpscRing<LoopCommand> commands_;
   rt::SpscRing<RecordItem> records_;
-  rt::SpscRing<rt::TickRecord> stream_;
+  rt::SpscRing<rt::TickRecord> stream_;  ///< pushed by the writer thread
+  rt::OneStepPredictor predictor_;        ///< used by the writer thread only
   std::atomic<double> kp_{0.0};
   std::atomic<bool> run_active_{false};
   std::atomic<long> ticks_{0}, misses_{0};
