@@ -20,9 +20,6 @@ bool depends_on_velocity(const Effects& e) noexcept {
   return false;
 }
 
-/// The smooth sign x/√(1 + x²) [−1, 1]: odd, slope 1 at 0; cheaper than tanh in the tick.
-inline double smooth_sign(double x) noexcept { return x / std::sqrt(1.0 + x * x); }
-
 }  // namespace
 
 const char* to_string(CompensationMode mode) noexcept {
@@ -98,67 +95,6 @@ Compensator::Compensator(const CompensatorConfig& config, const Effects& model_e
 void Compensator::reset() noexcept {
   have_state_ = false;
   theta_hat_ = theta_meas_ = velocity_ = 0.0;
-}
-
-void Compensator::observe(double theta_rad, bool new_report) noexcept {
-  if (!have_state_) {
-    if (!new_report) return;
-    have_state_ = true;
-    theta_hat_ = theta_meas_ = theta_rad;
-    velocity_ = 0.0;
-    return;
-  }
-  const double predicted = theta_hat_ + period_s_ * velocity_;
-  if (!new_report) {
-    theta_hat_ = predicted;
-    return;
-  }
-  theta_meas_ = theta_rad;
-  const double residual = theta_rad - predicted;
-  theta_hat_ = predicted + gain_position_ * residual;
-  velocity_ += gain_velocity_ * residual;
-}
-
-double Compensator::effect_torque_estimate(double w, double breakaway) const noexcept {
-  if (!have_state_) return 0.0;
-  const double theta_lead = theta_meas_ + velocity_ * lead_s_;
-  // The effects that do not depend on θ̇, plus those that do, faded in through zero velocity and
-  // at low speed turned towards the P law's target (breakaway, file comment).
-  const double still = still_effects_.torque(theta_lead, 0.0);
-  if (!any_moving_) return still;
-  const double f = smooth_sign(std::abs(w) * inv_friction_smoothing_);
-  const double rest = 1.0 - f;
-  const double w_c = w + config_.friction_smoothing_rad_s * breakaway * rest;
-  const double g = f + std::abs(breakaway) * rest;
-  // (Friction alone vanishes at rest: tanh(0) = 0 makes the evaluation +0 exactly, skipped.)
-  const double at_rest = moving_effects_.zero_at_rest() ? 0.0 : moving_effects_.torque(theta_lead, 0.0);
-  const double moving = moving_effects_.torque(theta_lead, w_c);
-  return still + at_rest + (moving - at_rest) * g;
-}
-
-double Compensator::breakaway_direction(double error_rad, double p_command_v) const noexcept {
-  return p_command_v != 0.0 ? smooth_sign(error_rad * inv_breakaway_) : 0.0;
-}
-
-double Compensator::invert_deadzone(double desired_v) const noexcept {
-  const double d = effects_.deadzone_v;
-  if (!(d > 0.0)) return desired_v;
-  return desired_v + d * smooth_sign(desired_v * inv_deadzone_smoothing_);
-}
-
-double Compensator::command(double p_command_v, double feedforward_v, double reference_rate_rad_s,
-                            double error_rad, double damping_per_beta) const noexcept {
-  const bool ff = feeds_forward(config_.mode);
-  double v = p_command_v + (ff ? feedforward_v : 0.0);
-  if (!cancels_effects(config_.mode)) return v;
-  // With the feedforward the reference's velocity (0 at rest): friction compensated by the
-  // measured velocity is a feedback that, over-estimated, injects energy (negative friction) and
-  // sustains a limit cycle at rest; by ṙ and the position error it is not a feedback on θ̇.
-  const double w = ff ? reference_rate_rad_s : velocity_;
-  // A fraction of the α-model's damping, in the mode `effects` (file comment).
-  if (!ff && have_state_) v += config_.damping_fraction * damping_per_beta * velocity_;
-  return invert_deadzone(
-      v - effect_torque_estimate(w, breakaway_direction(error_rad, p_command_v)));
 }
 
 }  // namespace alphainv::rt
