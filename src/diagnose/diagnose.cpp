@@ -1103,11 +1103,19 @@ void try_refinements(const CandidateFitter& fitter, const RoundStart& start,
   const DiagnoseOptions& opt = fitter.options();
   for (std::size_t at : refinements) {
     const EffectKind kind = candidates[at].effect;
-    const EffectKind parent = effect_spec(kind).refines;
-    const auto p = std::find_if(candidates.begin(), candidates.end(), [&](const CandidateScore& c) {
-      return c.effect == parent && c.ok && c.cross_validated;
-    });
-    if (p == candidates.end()) continue;  // the parent is not among the two best
+    const EffectSpec& spec = effect_spec(kind);
+    // The effect it generalises (the better scored of its two, when it has two) among the
+    // cross-validated: else it is not tried.
+    auto p = candidates.end();
+    for (auto it = candidates.begin(); it != candidates.end(); ++it) {
+      const bool parent_kind = it->effect == spec.refines ||
+                               (spec.also_refines != EffectKind::kNone && it->effect == spec.also_refines);
+      if (parent_kind && it->ok && it->cross_validated && (p == candidates.end() || it->score < p->score)) {
+        p = it;
+      }
+    }
+    if (p == candidates.end()) continue;  // no parent among the two best
+    const EffectKind parent = p->effect;
     // Started from its equation-error start with the parent's α-model and coefficient factors
     // (no search with re-identification: the parent's has found the valley; it would cost 3× a
     // candidate's time).
@@ -1622,7 +1630,11 @@ DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const Prep
       continue;
     }
     if (effect_spec(kind).refines != EffectKind::kNone) {
-      cand.message = std::string("tried only when ") + effect_name(effect_spec(kind).refines) +
+      const EffectSpec& spec = effect_spec(kind);
+      cand.message = std::string("tried only when ") + effect_name(spec.refines) +
+                     (spec.also_refines != EffectKind::kNone
+                          ? std::string(" or ") + effect_name(spec.also_refines)
+                          : std::string()) +
                      " is among the two best";
       refinements.push_back(rd.candidates.size());
       rd.candidates.push_back(cand);

@@ -455,6 +455,12 @@ struct EffectSpec {
   /// tries it only when that one is among a round's two best candidates, and names it over that
   /// one only when it beats it in cross-validation (its extra parameters earn their place).
   EffectKind refines = EffectKind::kNone;
+  /// A second effect it generalises (kNone: none): diagnose also tries it when that one is among
+  /// the two best, and compares it with the better of the two. Asymmetric friction while moving
+  /// is a Coulomb level (Fc+ + Fc−)/2 plus a constant (Fc+ − Fc−)/2: an offset torque is as much
+  /// its trace as Coulomb friction (seed 41 of the sweep: gravity, offset, then Coulomb by
+  /// training RMS, the generalisation never tried, gravity named for it).
+  EffectKind also_refines = EffectKind::kNone;
   /// A candidate of `omni_fit diagnose` and a case of `omni_fit sweep`. false: the discovered
   /// term, which diagnose fits by sparse regression after the named effects
   /// (diagnose/discovered_term.hpp) instead of searching it.
@@ -808,7 +814,7 @@ inline const std::array<EffectSpec, kEffectKindCount> kEffectCatalogue = {{
        e.asymmetric_viscous_diff_v_s = std::clamp(b[2], -vmax, vmax);
      },
      detail::start_only_grid, nullptr, nullptr, 0.0, nullptr, {0.02, 0.01}, false,
-     EffectKind::kCoulombFriction},
+     EffectKind::kCoulombFriction, EffectKind::kOffsetTorque},
 
     {EffectKind::kPositionDependentFriction, "position_dependent_friction",
      "Coulomb friction varying along theta: n = -tanh(theta'/eps) max(0, Fc0 + s theta)",
@@ -908,7 +914,7 @@ inline const std::array<EffectSpec, kEffectKindCount> kEffectCatalogue = {{
         detail::no_bounds, detail::half_start}}},
      kDiscoveredTerms + 4, [](const Effects& e) { return discovered_active(e); },
      detail::discovered_least_squares_start, detail::start_only_grid, nullptr, nullptr, 0.0,
-     nullptr, {0.01, 0.005}, false, EffectKind::kNone, /*candidate=*/false},
+     nullptr, {0.01, 0.005}, false, EffectKind::kNone, EffectKind::kNone, /*candidate=*/false},
 }};
 
 /// The table entry of `kind`.
