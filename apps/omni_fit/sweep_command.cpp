@@ -106,7 +106,7 @@ CLI::App* add_sweep_subcommand(CLI::App& app, SweepCommandOptions& o) {
   c->add_flag("--require", o.require,
               "exit 3 unless every case names its effect (cutting the RMS error by >= 30 %) and "
               "every effect-free case says none");
-  c->add_flag("--json", o.json, "print the cases as one JSON object");
+  c->add_flag("--json", o.json, "print the cases as one JSON object (alone on standard output)");
   c->add_option("--threads", o.threads, "cases diagnosed side by side, one thread each (default: all cores)");
   c->add_option("-o,--out", o.out_file, "write the confusion matrix (Markdown) to this file");
   c->footer("Each case: the paper's 9-frequency sine sweep and a 0.25 Hz square wave at one pose "
@@ -279,7 +279,9 @@ int run_sweep(const SweepCommandOptions& o) {
         "noise floor: "
      << none_explained << "/" << none_cases << "; right effect named and explained: "
      << right_explained << "/" << effect_cases << ".\n";
-  std::printf("%s", md.str().c_str());
+  // With --json, standard output is the JSON object alone (for jq and scripts); the table goes to
+  // -o when asked for.
+  if (!o.json) std::printf("%s", md.str().c_str());
   if (!o.out_file.empty()) {
     try {
       write_text_atomic(o.out_file, md.str());
