@@ -168,8 +168,12 @@ ControlLoop::ControlLoop(const ControlLoopConfig& config)
   beta_line_ = HeldLine::through(m.beta_alpha.data(), b_i, 2);
   beta_i_min_ = std::min(b_i[0], b_i[1]);
   set_reference(wave_, 0.0, false);  // the sine's constants
-  const double ticks = std::round(config_.effects.delay_s / config_.period_s);
-  delay_ticks_ = static_cast<std::size_t>(std::min(ticks, static_cast<double>(kMaxDelayTicks)));
+  delay_ticks_ = delay_ticks(config_);
+}
+
+std::size_t ControlLoop::delay_ticks(const ControlLoopConfig& config) noexcept {
+  const double ticks = std::round(config.effects.delay_s / config.period_s);
+  return static_cast<std::size_t>(std::min(ticks, static_cast<double>(kMaxDelayTicks)));
 }
 
 void ControlLoop::latch(Fault fault) noexcept {

@@ -8,14 +8,10 @@
 namespace alphainv::rt {
 
 OneStepPredictor::OneStepPredictor(const ControlLoopConfig& config)
-    : effects_(config.effects), torque_effects_(config.effects), period_s_(config.period_s) {
-  for (const EffectSpec& spec : kEffectCatalogue) {
-    if (spec.role == EffectRole::kTorque && spec.active(effects_)) has_torque_effects_ = true;
-  }
-  // As the tick rounds the delay (ControlLoop's constructor).
-  const double ticks = std::round(effects_.delay_s / period_s_);
-  delay_ticks_ = static_cast<std::size_t>(
-      std::min(ticks, static_cast<double>(ControlLoop::kMaxDelayTicks)));
+    : effects_(config.effects),
+      torque_effects_(config.effects),
+      period_s_(config.period_s),
+      delay_ticks_(ControlLoop::delay_ticks(config)) {
   v_history_.assign(delay_ticks_ + 1, 0.0);
 }
 
@@ -66,7 +62,7 @@ void OneStepPredictor::add(TickRecord& rec) noexcept {
     const double theta_dot_prev = (theta - theta_prev - g_prev * (T - a_prev_)) * inv_a_prev_;
     const double theta_dot = theta_dot_prev * e_prev_ + g_prev * (1.0 - e_prev_);
     // u: the command through the effects plus their torque n(θ, θ̇), held over the tick.
-    const double u = v_model + (has_torque_effects_
+    const double u = v_model + (torque_effects_.any()
                                     ? plant_torque(torque_effects_, rec.t_s, theta, theta_dot)
                                     : 0.0);
     theta_pred_next_ = theta + theta_dot * a + (gain * u) * (T - a);
@@ -75,7 +71,7 @@ void OneStepPredictor::add(TickRecord& rec) noexcept {
   } else {
     have_pred_ = false;
     u_prev_ = v_model +
-              (has_torque_effects_ ? plant_torque(torque_effects_, rec.t_s, theta, 0.0) : 0.0);
+              (torque_effects_.any() ? plant_torque(torque_effects_, rec.t_s, theta, 0.0) : 0.0);
   }
   have_prev_tick_ = rec.new_report;
   c_prev_ = c;

@@ -1108,11 +1108,8 @@ void try_refinements(const CandidateFitter& fitter, const RoundStart& start,
     // cross-validated: else it is not tried.
     auto p = candidates.end();
     for (auto it = candidates.begin(); it != candidates.end(); ++it) {
-      const bool parent_kind = it->effect == spec.refines ||
-                               (spec.also_refines != EffectKind::kNone && it->effect == spec.also_refines);
-      if (parent_kind && it->ok && it->cross_validated && (p == candidates.end() || it->score < p->score)) {
-        p = it;
-      }
+      const bool parent = spec.generalises(it->effect) && it->ok && it->cross_validated;
+      if (parent && (p == candidates.end() || it->score < p->score)) p = it;
     }
     if (p == candidates.end()) continue;  // no parent among the two best
     const EffectKind parent = p->effect;

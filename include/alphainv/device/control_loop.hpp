@@ -201,6 +201,9 @@ class ControlLoop {
 
   /// The longest model delay the command history holds [ticks].
   static constexpr std::size_t kMaxDelayTicks = 1023;
+  /// The model's delay in whole ticks (config.effects.delay_s rounded, at most kMaxDelayTicks):
+  /// the tick's and the prediction's (one_step_predictor.hpp).
+  static std::size_t delay_ticks(const ControlLoopConfig& config) noexcept;
 
  private:
   void supervise(const device::ReadResult& input, bool deadline_missed) noexcept;

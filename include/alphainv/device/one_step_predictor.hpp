@@ -40,10 +40,10 @@ class OneStepPredictor {
  private:
   Effects effects_;
   TorqueEffects torque_effects_;
-  bool has_torque_effects_ = false;
   double period_s_ = 0.0;
-  std::vector<double> v_history_;  ///< commands sent, a ring of delay_ticks_ + 1 (or more)
-  std::size_t v_head_ = 0, delay_ticks_ = 0;
+  std::size_t delay_ticks_ = 0;    ///< ControlLoop::delay_ticks(), as the tick
+  std::vector<double> v_history_;  ///< commands sent, a ring of delay_ticks_ + 1
+  std::size_t v_head_ = 0;
   // The previous tick's model quantities (see ControlLoop::tick() before the split).
   bool have_prev_tick_ = false, have_pred_ = false;
   double theta_prev_ = 0.0;      ///< the previous record's θ [rad]

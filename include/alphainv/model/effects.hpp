@@ -466,6 +466,11 @@ struct EffectSpec {
   /// (diagnose/discovered_term.hpp) instead of searching it.
   bool candidate = true;
 
+  /// Whether this effect generalises `other` (refines or also_refines; never kNone).
+  bool generalises(EffectKind other) const noexcept {
+    return other != EffectKind::kNone && (other == refines || other == also_refines);
+  }
+
   /// The parameters, modelling choices included.
   const EffectParameter* begin() const noexcept { return parameters.data(); }
   const EffectParameter* end() const noexcept { return parameters.data() + parameter_count; }
