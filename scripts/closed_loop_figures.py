@@ -47,14 +47,24 @@ def merge(out, folders):
 
 
 def scale(model_in, factor, model_out):
-    """model.json with every effect's first (magnitude) parameter scaled by `factor`."""
+    """model.json with every effect's size scaled by `factor`: each parameter in command units
+    (NAME_v, NAME_v_s, NAME_v_per_rad: Coulomb, offset, gravity, cogging, deadzone, Stribeck,
+    asymmetric and position-dependent friction levels, the discovered term's coefficients), not
+    the saturation limit, smoothing widths, periods, phases or delays. Exits non-zero when an
+    effect has none (a robustness run that scaled nothing would look robust)."""
     with open(model_in) as f:
         m = json.load(f)
-    magnitudes = ["coulomb_v", "offset_v", "gravity_v", "cogging_v", "deadzone_v"]
+    sizes = ("_v", "_v_s", "_v_per_rad")
     for entry in m.get("effects", []):  # [{"effect": NAME, "parameters": {...}}, ...]
+        scaled = 0
         for key, value in entry.get("parameters", {}).items():
-            if key in magnitudes and isinstance(value, (int, float)):
+            if (key.endswith(sizes) and key not in ("saturation_v", "disturbance_rms_v")
+                    and isinstance(value, (int, float))):
                 entry["parameters"][key] = value * factor
+                scaled += 1
+        if scaled == 0 and entry.get("effect") not in ("time_delay", "saturation"):
+            sys.exit(f"scale: {model_in}: effect {entry.get('effect')!r} has no size parameter "
+                     f"to scale ({sorted(entry.get('parameters', {}))})")
     with open(model_out, "w") as f:
         json.dump(m, f, indent=1)
 

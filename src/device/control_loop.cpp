@@ -188,10 +188,10 @@ void ControlLoop::set_reference(const Waveform& wave, double t_start_s, bool rel
   const double lead = omega_ * compensator_.lead_s();
   cos_lead_ = std::cos(lead);
   sin_lead_ = std::sin(lead);
+  reference_phasor_.set_step(omega_ * config_.period_s);
 }
 
 void ControlLoop::update_inertia() noexcept {
-  if (have_inertia_ && gamma1_ == inertia_gamma1_ && gamma2_ == inertia_gamma2_) return;
   inertia_ = config_.inertia.inertia(gamma1_, gamma2_);
   inv_inertia_ = 1.0 / inertia_;
   inertia_gamma1_ = gamma1_;
@@ -234,6 +234,7 @@ void ControlLoop::reference(double t_s, double lead_s, bool feed_forward, double
 void ControlLoop::hold() noexcept {
   wave_ = Waveform{WaveKind::kHold, 0.0, 0.0, theta_};
   wave_start_s_ = 0.0;
+  reference_phasor_.reset();
 }
 
 bool ControlLoop::set_kp(double kp) noexcept {
@@ -306,13 +307,8 @@ TickRecord ControlLoop::tick(double t_s, const device::ReadResult& input, bool d
   const bool ff = feeds_forward(mode);
   const double t_wave = t_s - wave_start_s_;
   double sine_sin = 0.0, sine_cos = 0.0;
-  if (wave_.kind == WaveKind::kSine) {  // Waveform::at (its sin to 2 ulp), with cos(ωt) for ff
-    const double phase = omega_ * t_wave;
-    if (ff) {
-      sin_cos(phase, sine_sin, sine_cos);
-    } else {
-      sine_sin = detail::fast_sin(phase);
-    }
+  if (wave_.kind == WaveKind::kSine) {  // Waveform::at (its sin to 1e-14), with cos(ωt) for ff
+    reference_phasor_.sin_cos(omega_ * t_wave, sine_sin, sine_cos);
     rec.r_rad = wave_.offset_rad + wave_.amplitude_rad * sine_sin;
   } else {
     rec.r_rad = wave_.at(t_wave);
@@ -330,13 +326,13 @@ TickRecord ControlLoop::tick(double t_s, const device::ReadResult& input, bool d
   // P law, eq. (10) with ki = kd = 0, on the reference r (in the modes that feed forward, a jump
   // of the waveform followed along a cycloid the clamp allows), plus the compensation
   // (compensator.hpp), then the clamp and the slew limit.
-  update_inertia();
+  if (!(have_inertia_ && gamma1_ == inertia_gamma1_ && gamma2_ == inertia_gamma2_)) update_inertia();
   const double inertia = inertia_;
   compensator_.observe(theta_, new_report);
   double r = rec.r_rad, r_dot = 0.0, r_ddot = 0.0;
-  if (mode != CompensationMode::kNone) {
+  if (ff) {  // (without the feedforward the reference is the waveform's own r: no call)
     reference(t_s, compensator_.lead_s(), ff, rec.r_rad, r, r_dot, r_ddot);
-    if (ff && wave_.kind == WaveKind::kSine) {
+    if (wave_.kind == WaveKind::kSine) {
       // ṙ, r̈ at the tick's middle plus τ: (sin, cos)(ω(t + lead)) by rotating (sin, cos)(ωt).
       const double s_lead = sine_sin * cos_lead_ + sine_cos * sin_lead_;
       const double c_lead = sine_cos * cos_lead_ - sine_sin * sin_lead_;

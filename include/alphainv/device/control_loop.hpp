@@ -23,6 +23,7 @@
 #include "alphainv/model/effects.hpp"
 #include "alphainv/model/inertia_model.hpp"
 #include "alphainv/rt/alpha_estimator.hpp"
+#include "alphainv/rt/sine_phasor.hpp"
 
 namespace alphainv::rt {
 
@@ -208,7 +209,7 @@ class ControlLoop {
  private:
   void supervise(const device::ReadResult& input, bool deadline_missed) noexcept;
 
-  /// I(γ1, γ2) and 1/I, recomputed only when the measured pose changes.
+  /// I(γ1, γ2) and 1/I at the measured pose (the tick calls it only when the pose changed).
   void update_inertia() noexcept;
   /// The reference r the P law tracks and, in the modes that feed forward, ṙ and r̈ at the tick's
   /// middle plus τ (`lead_s`), at t_wave [s] since the waveform's start; `raw` is the waveform's
@@ -228,6 +229,8 @@ class ControlLoop {
   bool have_inertia_ = false;
   /// The sine's ω = 2πf, and cos, sin of ω·lead (the feedforward's reference, rotated).
   double omega_ = 0.0, cos_lead_ = 1.0, sin_lead_ = 0.0;
+  /// sin, cos of the sine's phase ω·t, rotated by ω·T from the previous tick's (sine_phasor.hpp).
+  SinePhasor reference_phasor_;
   /// The jump being followed (feedforward modes) and the waveform's value it goes to.
   ReferenceTransition transition_;
   double raw_target_ = 0.0;
