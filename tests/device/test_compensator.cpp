@@ -196,7 +196,9 @@ TEST(Compensator, DeadzoneInverseIsExactAwayFromZeroAndSmoothThroughIt) {
     // Z(Z⁻¹(x)) − x = −d·(1 − s(|x|/δ))·sign(x): 0 for |x| ≥ 1.5·δ.
     const double y = std::abs(x) / 1e-3;
     EXPECT_NEAR(amplifier(e, v) - x, -std::copysign(0.01 * (1.0 - smooth_sign(y)), x), 1e-15) << x;
-    if (y >= 1.5) EXPECT_NEAR(amplifier(e, v), x, 1e-15) << x;
+    if (y >= 1.5) {
+      EXPECT_NEAR(amplifier(e, v), x, 1e-15) << x;
+    }
   }
   EXPECT_EQ(comp.invert_deadzone(0.0), 0.0);
   // Continuous through zero: no jump of ±d between neighbouring inputs.
