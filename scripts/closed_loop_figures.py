@@ -62,7 +62,9 @@ def scale(model_in, factor, model_out):
                     and isinstance(value, (int, float))):
                 entry["parameters"][key] = value * factor
                 scaled += 1
-        if scaled == 0 and entry.get("effect") not in ("time_delay", "saturation"):
+        # (No size: a delay, a limit, a torque of time the tick does not compensate.)
+        if scaled == 0 and entry.get("effect") not in ("time_delay", "saturation",
+                                                       "external_disturbance"):
             sys.exit(f"scale: {model_in}: effect {entry.get('effect')!r} has no size parameter "
                      f"to scale ({sorted(entry.get('parameters', {}))})")
     with open(model_out, "w") as f:

@@ -199,11 +199,10 @@ void ControlLoop::update_inertia() noexcept {
   have_inertia_ = true;
 }
 
-void ControlLoop::reference(double t_s, double lead_s, bool feed_forward, double raw, double& r,
-                            double& r_dot, double& r_ddot) noexcept {
+void ControlLoop::reference(double t_s, double lead_s, double raw, double& r, double& r_dot,
+                            double& r_ddot) noexcept {
   r = raw;
   r_dot = r_ddot = 0.0;
-  if (!feed_forward) return;
   if (wave_.kind == WaveKind::kSine) {  // the caller's rates; a later jump starts from here
     have_raw_target_ = false;
     have_reference_ = true;
@@ -331,7 +330,7 @@ TickRecord ControlLoop::tick(double t_s, const device::ReadResult& input, bool d
   compensator_.observe(theta_, new_report);
   double r = rec.r_rad, r_dot = 0.0, r_ddot = 0.0;
   if (ff) {  // (without the feedforward the reference is the waveform's own r: no call)
-    reference(t_s, compensator_.lead_s(), ff, rec.r_rad, r, r_dot, r_ddot);
+    reference(t_s, compensator_.lead_s(), rec.r_rad, r, r_dot, r_ddot);
     if (wave_.kind == WaveKind::kSine) {
       // ṙ, r̈ at the tick's middle plus τ: (sin, cos)(ω(t + lead)) by rotating (sin, cos)(ωt).
       const double s_lead = sine_sin * cos_lead_ + sine_cos * sin_lead_;

@@ -35,6 +35,8 @@ def test_scale_scales_every_size_and_nothing_else(tmp_path):
          "parameters": {"cogging_v": 0.01, "cogging_period_rad": 0.016, "cogging_phase_rad": 1.1}},
         {"effect": "saturation", "parameters": {"saturation_v": 0.4}},
         {"effect": "time_delay", "parameters": {"delay_s": 0.002}},
+        {"effect": "external_disturbance",
+         "parameters": {"disturbance_rms_v": 0.001, "disturbance_window_s": 0.05}},
     ]
     write_model(tmp_path / "in.json", effects)
     figures.scale(str(tmp_path / "in.json"), 1.3, str(tmp_path / "out.json"))
@@ -52,6 +54,8 @@ def test_scale_scales_every_size_and_nothing_else(tmp_path):
                               "cogging_period_rad": 0.016, "cogging_phase_rad": 1.1}
     assert out["saturation"] == {"saturation_v": 0.4}  # a limit, not a size
     assert out["time_delay"] == {"delay_s": 0.002}
+    # A torque of time, located per run: not compensated by the tick, so not scaled.
+    assert out["external_disturbance"] == {"disturbance_rms_v": 0.001, "disturbance_window_s": 0.05}
 
 
 def test_scale_refuses_an_effect_with_nothing_to_scale(tmp_path):

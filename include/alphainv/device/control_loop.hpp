@@ -211,11 +211,11 @@ class ControlLoop {
 
   /// I(γ1, γ2) and 1/I at the measured pose (the tick calls it only when the pose changed).
   void update_inertia() noexcept;
-  /// The reference r the P law tracks and, in the modes that feed forward, ṙ and r̈ at the tick's
-  /// middle plus τ (`lead_s`), at t_wave [s] since the waveform's start; `raw` is the waveform's
-  /// own r (recorded).
-  void reference(double t_wave, double lead_s, bool feed_forward, double raw, double& r,
-                 double& r_dot, double& r_ddot) noexcept;
+  /// In the modes that feed forward (the tick calls it only there; otherwise r is the waveform's
+  /// own): the reference r the P law tracks and ṙ and r̈ at the tick's middle plus τ (`lead_s`),
+  /// at t_wave [s] since the waveform's start; `raw` is the waveform's own r (recorded).
+  void reference(double t_wave, double lead_s, double raw, double& r, double& r_dot,
+                 double& r_ddot) noexcept;
 
   ControlLoopConfig config_;
   AlphaEstimator estimator_;
