@@ -77,19 +77,21 @@ Compensator::Compensator(const CompensatorConfig& config, const Effects& model_e
   inv_friction_smoothing_ = 1.0 / config.friction_smoothing_rad_s;
   inv_deadzone_smoothing_ = 1.0 / config.deadzone_smoothing_v;
   inv_breakaway_ = 1.0 / config.breakaway_smoothing_rad;
-  // Sort the torque effects generically, through the catalogue: each active one alone, probed.
-  Effects still, moving_group;
+  // Sort the torque effects generically, through the catalogue: each active one alone, probed;
+  // the terms it turns on join the moving mask when its torque depends on θ̇.
+  Effects torque_group, moving_group;
   for (const EffectSpec& spec : kEffectCatalogue) {
     if (spec.role != EffectRole::kTorque || !spec.active(model_effects)) continue;
     Effects alone;
     for (const EffectParameter& q : spec) alone.*(q.member) = model_effects.*(q.member);
-    const bool moving = depends_on_velocity(alone);
-    Effects& group = moving ? moving_group : still;
-    for (const EffectParameter& q : spec) group.*(q.member) = model_effects.*(q.member);
-    any_moving_ = any_moving_ || moving;
+    for (const EffectParameter& q : spec) torque_group.*(q.member) = model_effects.*(q.member);
+    if (!depends_on_velocity(alone)) continue;
+    for (const EffectParameter& q : spec) moving_group.*(q.member) = model_effects.*(q.member);
+    moving_terms_ |= TorqueEffects(alone).terms_on();
+    any_moving_ = true;
   }
-  still_effects_ = TorqueEffects(still);
-  moving_effects_ = TorqueEffects(moving_group);
+  torque_effects_ = TorqueEffects(torque_group);
+  moving_zero_at_rest_ = TorqueEffects(moving_group).zero_at_rest();
 }
 
 void Compensator::reset() noexcept {

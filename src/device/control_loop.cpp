@@ -203,12 +203,6 @@ void ControlLoop::reference(double t_s, double lead_s, double raw, double& r, do
                             double& r_ddot) noexcept {
   r = raw;
   r_dot = r_ddot = 0.0;
-  if (wave_.kind == WaveKind::kSine) {  // the caller's rates; a later jump starts from here
-    have_raw_target_ = false;
-    have_reference_ = true;
-    transition_ = ReferenceTransition{raw, raw, t_s, 0.0};
-    return;
-  }
   // Piecewise constant (hold, step, square): each jump followed along the fastest cycloid the
   // clamp allows (ReferenceTransition), from where the reference is now.
   if (!have_raw_target_ || raw != raw_target_) {
@@ -330,8 +324,14 @@ TickRecord ControlLoop::tick(double t_s, const device::ReadResult& input, bool d
   compensator_.observe(theta_, new_report);
   double r = rec.r_rad, r_dot = 0.0, r_ddot = 0.0;
   if (ff) {  // (without the feedforward the reference is the waveform's own r: no call)
-    reference(t_s, compensator_.lead_s(), rec.r_rad, r, r_dot, r_ddot);
-    if (wave_.kind == WaveKind::kSine) {
+    if (wave_.kind != WaveKind::kSine) {
+      reference(t_s, compensator_.lead_s(), rec.r_rad, r, r_dot, r_ddot);
+    } else {
+      // reference()'s sine case, inline (a call per tick for four stores): a later jump starts
+      // from here.
+      have_raw_target_ = false;
+      have_reference_ = true;
+      transition_ = ReferenceTransition{r, r, t_s, 0.0};
       // ṙ, r̈ at the tick's middle plus τ: (sin, cos)(ω(t + lead)) by rotating (sin, cos)(ωt).
       const double s_lead = sine_sin * cos_lead_ + sine_cos * sin_lead_;
       const double c_lead = sine_cos * cos_lead_ - sine_sin * sin_lead_;

@@ -10,7 +10,8 @@
 ///   listed here) at the measured angle led by half a tick plus the model's delay,
 ///   θ_L = θ + θ̇_f·(T/2 + τ), and at a velocity w, with its velocity-dependent part faded in
 ///   through zero velocity (the model's torque effects are sorted once, in the constructor, by
-///   whether their term depends on θ̇, so the tick evaluates the others once):
+///   whether their term depends on θ̇; the tick evaluates all terms in one pass and sums the two
+///   kinds apart):
 ///       n̂ = n(θ_L, 0) + [n(θ_L, w) − n(θ_L, 0)]·s(|w|/ε_c),
 ///   s(x) = x·(1 − x²/6.75) for |x| ≤ 1.5, sign(x) beyond (a clamped cubic: odd, slope 1 at 0,
 ///   flat where it reaches ±1 at |x| = 1.5; no square root or division in the tick),
@@ -163,13 +164,34 @@ class Compensator {
     return c * (1.0 - c * c * (1.0 / 6.75));
   }
 
+  /// effect_torque_sum's sum split in two: the terms of moving_terms (a mask of
+  /// detail::torque_term_bit) and the others with the offset.
+  struct SplitTorqueSum {
+    unsigned moving_terms = 0;
+    double still = 0.0, moving = 0.0;
+    void start(double offset) noexcept {
+      still = offset;
+      moving = 0.0;
+    }
+    void add(detail::TorqueTerm term, double addend) noexcept {
+      if ((moving_terms & detail::torque_term_bit(term)) != 0u) {
+        moving += addend;
+      } else {
+        still += addend;
+      }
+    }
+  };
+
   CompensatorConfig config_;
   Effects effects_;
-  /// The model's torque effects split by the catalogue (probed once, in the constructor): those
-  /// whose torque does not depend on θ̇ (evaluated once per tick) and those that do, with their
-  /// constants precomputed (torque_effects.hpp).
-  TorqueEffects still_effects_, moving_effects_;
+  /// The model's torque effects with their constants precomputed (torque_effects.hpp), evaluated
+  /// in one pass per tick, their sum split by moving_terms_: the terms of the effects whose
+  /// torque depends on θ̇ (probed once, in the constructor, through the catalogue).
+  TorqueEffects torque_effects_;
+  unsigned moving_terms_ = 0;
   bool any_moving_ = false;
+  /// Whether the moving terms vanish at θ̇ = 0 by construction (TorqueEffects::zero_at_rest()).
+  bool moving_zero_at_rest_ = true;
   double period_s_;
   double lead_s_;
   double gain_position_ = 0.0, gain_velocity_ = 0.0;  ///< α-β gains a, b/T
@@ -208,16 +230,27 @@ inline double Compensator::effect_torque_estimate(double w, double breakaway) co
   const double theta_lead = theta_meas_ + velocity_ * lead_s_;
   // The effects that do not depend on θ̇, plus those that do, faded in through zero velocity and
   // at low speed turned towards the P law's target (breakaway, file comment).
-  const double still = still_effects_.torque(theta_lead, 0.0);
-  if (!any_moving_) return still;
+  // One pass at w_c: the terms that do not depend on θ̇ are the same there as at rest.
+  SplitTorqueSum sum;
+  sum.moving_terms = moving_terms_;
+  if (!any_moving_) {
+    torque_effects_.sum_terms(theta_lead, 0.0, sum);
+    return sum.still;
+  }
   const double f = smooth_sign(std::abs(w) * inv_friction_smoothing_);
   const double rest = 1.0 - f;
   const double w_c = w + config_.friction_smoothing_rad_s * breakaway * rest;
   const double g = f + std::abs(breakaway) * rest;
+  torque_effects_.sum_terms(theta_lead, w_c, sum);
   // (Friction alone vanishes at rest: tanh(0) = 0 makes the evaluation +0 exactly, skipped.)
-  const double at_rest = moving_effects_.zero_at_rest() ? 0.0 : moving_effects_.torque(theta_lead, 0.0);
-  const double moving = moving_effects_.torque(theta_lead, w_c);
-  return still + at_rest + (moving - at_rest) * g;
+  double at_rest = 0.0;
+  if (!moving_zero_at_rest_) {
+    SplitTorqueSum rest_sum;
+    rest_sum.moving_terms = moving_terms_;
+    torque_effects_.sum_terms(theta_lead, 0.0, rest_sum);
+    at_rest = rest_sum.moving;
+  }
+  return sum.still + at_rest + (sum.moving - at_rest) * g;
 }
 
 inline double Compensator::breakaway_direction(double error_rad, double p_command_v) const noexcept {

@@ -211,8 +211,9 @@ class ControlLoop {
 
   /// I(γ1, γ2) and 1/I at the measured pose (the tick calls it only when the pose changed).
   void update_inertia() noexcept;
-  /// In the modes that feed forward (the tick calls it only there; otherwise r is the waveform's
-  /// own): the reference r the P law tracks and ṙ and r̈ at the tick's middle plus τ (`lead_s`),
+  /// In the modes that feed forward, for the piecewise-constant waveforms (the tick calls it only
+  /// there; the sine is followed as it is, in the tick; without the feedforward r is the
+  /// waveform's own): the reference r the P law tracks and ṙ and r̈ at the tick's middle plus τ (`lead_s`),
   /// at t_wave [s] since the waveform's start; `raw` is the waveform's own r (recorded).
   void reference(double t_wave, double lead_s, double raw, double& r, double& r_dot,
                  double& r_ddot) noexcept;

@@ -202,36 +202,76 @@ inline std::string discovered_equation(const Effects& e) {
 
 namespace detail {
 
+/// The terms of n(θ, θ̇) after the offset (which starts the sum), in effect_torque_terms' order:
+/// a Sum policy is told which term each addend is.
+enum class TorqueTerm : unsigned {
+  kCoulomb,
+  kGravity,
+  kCogging,
+  kStribeck,
+  kAsymmetric,
+  kPosition,
+  kDiscovered,
+};
+/// Bit of `term` in a mask of TorqueTerms.
+constexpr unsigned torque_term_bit(TorqueTerm term) noexcept {
+  return 1u << static_cast<unsigned>(term);
+}
+
+/// effect_torque_terms' sum: the offset, then each term added in order.
+struct PlainTorqueSum {
+  double n = 0.0;
+  void start(double offset) noexcept { n = offset; }
+  void add(TorqueTerm, double addend) noexcept { n += addend; }
+};
+
 /// The terms of n(θ, θ̇) (file comment): the one formula of effect_torque() and of TorqueEffects
-/// (torque_effects.hpp). `a` says which terms are on, gives the arguments of their tanh and sin
-/// and evaluates those (a.tanh(x), a.sin(x)): DividedArguments as written (θ̇/ε, 2π·θ/p, the tests
-/// of the parameters each call, std::tanh and std::sin), TorqueEffects' precomputed ones
-/// (θ̇·(1/ε), θ·(2π/p), flags) with detail::fast_tanh and fast_sin (fast_math.hpp: a few ulp from
-/// std::). Real-time safe.
-template <class Arguments>
-inline double effect_torque_terms(const Effects& e, const Arguments& a, double theta,
-                                  double theta_dot) noexcept {
-  double n = e.offset_v;
-  if (a.coulomb_on()) n -= e.coulomb_v * a.tanh(a.coulomb_x(theta_dot));
-  if (a.gravity_on()) n -= e.gravity_v * a.sin(theta + e.gravity_theta0_rad);
-  if (a.cogging_on()) n += e.cogging_v * a.sin(a.cogging_x(theta) + e.cogging_phase_rad);
+/// (torque_effects.hpp), summed by `sum`: sum.start(offset), then sum.add(term, addend) for each
+/// term on, in order (PlainTorqueSum adds them all; the compensator's sum splits them by whether
+/// they depend on θ̇, so one pass gives both parts). An addend is the term with its sign, so
+/// n + addend is n − term bit for bit. `a` says which terms are on, gives the arguments of their
+/// tanh and sin and evaluates those (a.tanh(x), a.sin(x)): DividedArguments as written (θ̇/ε,
+/// 2π·θ/p, the tests of the parameters each call, std::tanh and std::sin), TorqueEffects'
+/// precomputed ones (θ̇·(1/ε), θ·(2π/p), flags) with detail::fast_tanh and fast_sin
+/// (fast_math.hpp: a few ulp from std::). Real-time safe.
+template <class Arguments, class Sum>
+inline void effect_torque_sum(const Effects& e, const Arguments& a, double theta, double theta_dot,
+                              Sum& sum) noexcept {
+  sum.start(e.offset_v);
+  if (a.coulomb_on()) sum.add(TorqueTerm::kCoulomb, -(e.coulomb_v * a.tanh(a.coulomb_x(theta_dot))));
+  if (a.gravity_on()) {
+    sum.add(TorqueTerm::kGravity, -(e.gravity_v * a.sin(theta + e.gravity_theta0_rad)));
+  }
+  if (a.cogging_on()) {
+    sum.add(TorqueTerm::kCogging, e.cogging_v * a.sin(a.cogging_x(theta) + e.cogging_phase_rad));
+  }
   if (a.stribeck_on()) {
     const double x = a.stribeck_w(theta_dot);
-    n -= a.tanh(a.stribeck_x(theta_dot)) *
-         (e.stribeck_coulomb_v + (e.stribeck_breakaway_v - e.stribeck_coulomb_v) * std::exp(-x * x));
+    sum.add(TorqueTerm::kStribeck,
+            -(a.tanh(a.stribeck_x(theta_dot)) *
+              (e.stribeck_coulomb_v +
+               (e.stribeck_breakaway_v - e.stribeck_coulomb_v) * std::exp(-x * x))));
   }
   if (a.asymmetric_on()) {
     const double sg = a.tanh(a.asymmetric_x(theta_dot));
-    n -= sg * (e.asymmetric_coulomb_pos_v * 0.5 * (1.0 + sg) +
-               e.asymmetric_coulomb_neg_v * 0.5 * (1.0 - sg)) +
-         0.5 * e.asymmetric_viscous_diff_v_s * theta_dot * sg;
+    sum.add(TorqueTerm::kAsymmetric, -(sg * (e.asymmetric_coulomb_pos_v * 0.5 * (1.0 + sg) +
+                                             e.asymmetric_coulomb_neg_v * 0.5 * (1.0 - sg)) +
+                                       0.5 * e.asymmetric_viscous_diff_v_s * theta_dot * sg));
   }
   if (a.position_on()) {
     const double level = std::max(0.0, e.position_coulomb_v + e.position_slope_v_per_rad * theta);
-    n -= a.tanh(a.position_x(theta_dot)) * level;
+    sum.add(TorqueTerm::kPosition, -(a.tanh(a.position_x(theta_dot)) * level));
   }
-  if (a.discovered_on()) n += discovered_torque(e, theta, theta_dot);
-  return n;
+  if (a.discovered_on()) sum.add(TorqueTerm::kDiscovered, discovered_torque(e, theta, theta_dot));
+}
+
+/// n(θ, θ̇): effect_torque_sum's plain sum. Real-time safe.
+template <class Arguments>
+inline double effect_torque_terms(const Effects& e, const Arguments& a, double theta,
+                                  double theta_dot) noexcept {
+  PlainTorqueSum sum;
+  effect_torque_sum(e, a, theta, theta_dot, sum);
+  return sum.n;
 }
 
 /// effect_torque_terms' arguments as the file comment writes them: each call tests the parameters

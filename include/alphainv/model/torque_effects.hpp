@@ -32,6 +32,26 @@ class TorqueEffects {
   double torque(double theta, double theta_dot) const noexcept {
     return detail::effect_torque_terms(effects_, arguments_, theta, theta_dot);
   }
+  /// The same terms summed by `sum` (effects.hpp's detail::effect_torque_sum: sum.start(offset),
+  /// then sum.add(term, addend) for each term on, in order). Real-time safe.
+  template <class Sum>
+  void sum_terms(double theta, double theta_dot, Sum& sum) const noexcept {
+    detail::effect_torque_sum(effects_, arguments_, theta, theta_dot, sum);
+  }
+  /// The terms on, as a mask of detail::torque_term_bit() (the offset, which starts the sum, is
+  /// not a term). Real-time safe.
+  unsigned terms_on() const noexcept {
+    using detail::TorqueTerm;
+    using detail::torque_term_bit;
+    const Arguments& a = arguments_;
+    return (a.coulomb ? torque_term_bit(TorqueTerm::kCoulomb) : 0u) |
+           (a.gravity ? torque_term_bit(TorqueTerm::kGravity) : 0u) |
+           (a.cogging ? torque_term_bit(TorqueTerm::kCogging) : 0u) |
+           (a.stribeck ? torque_term_bit(TorqueTerm::kStribeck) : 0u) |
+           (a.asymmetric ? torque_term_bit(TorqueTerm::kAsymmetric) : 0u) |
+           (a.position ? torque_term_bit(TorqueTerm::kPosition) : 0u) |
+           (a.discovered ? torque_term_bit(TorqueTerm::kDiscovered) : 0u);
+  }
   /// Whether any torque term is on (else torque() is 0 everywhere). Real-time safe.
   bool any() const noexcept { return arguments_.any; }
   /// Whether torque(θ, 0) = 0 for every θ by construction: each term on carries the factor
