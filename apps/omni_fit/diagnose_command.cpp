@@ -120,9 +120,18 @@ nlohmann::json result_json(const DiagnoseResult& res) {
     nlohmann::json recorded = nlohmann::json::array();
     for (std::size_t i = 0; i < f.recorded.size(); ++i)
       if (f.recorded[i]) recorded.push_back(f.run_names[i]);
+    // Per run: how its windows were judged (why nothing was located there, when so).
+    nlohmann::json per_run = nlohmann::json::array();
+    for (std::size_t i = 0; i < f.runs.size(); ++i) {
+      const DisturbanceEstimate& r = f.runs[i];
+      per_run.push_back({{"run", f.run_names[i]}, {"ok", r.ok}, {"windows", r.windows},
+                         {"active_windows", r.active_windows}, {"baseline_v", num(r.baseline_v)},
+                         {"spread_v", num(r.spread_v)}, {"intervals", r.intervals.size()},
+                         {"message", r.message}});
+    }
     j["disturbance"] = {{"named", f.named}, {"message", f.message}, {"rms_v", num(f.rms_v)},
                         {"error_before", num(f.error_before)}, {"error_after", num(f.error_after)},
-                        {"intervals", iv}, {"recorded_disturbance_v", recorded}};
+                        {"intervals", iv}, {"recorded_disturbance_v", recorded}, {"runs", per_run}};
   }
   return j;
 }

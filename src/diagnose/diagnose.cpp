@@ -1821,25 +1821,34 @@ namespace diagnose_detail {
 DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_given,
                                          const std::vector<EffectKind>& catalogue,
                                          const DiagnoseOptions& opt, DiagnoseResult res,
-                                         std::chrono::steady_clock::time_point t_start) {
+                                         std::chrono::steady_clock::time_point t_start,
+                                         bool provisional_disturbance) {
+  const DiagnoseResult res_given = res;  // (for the rounds again without a provisional d)
   // --- external_disturbance (named work): a torque of time located before the rounds; when
-  // named, the rounds, the verdict and the figures see the runs with d̂ as a known input.
+  // named, the rounds, the verdict and the figures see the runs with the estimate as a known
+  // input. When located but not significant with the model given, the estimate is provisional:
+  // known to the rounds, judged again after them (diagnose_stages.hpp).
   std::vector<RunData> data_with_d;
   std::vector<DiagnoseRun> runs_with_d;
   std::optional<PreparedRuns> prepared_given;
   std::vector<std::vector<double>> sims_given;
+  bool provisional = false;
   if (std::find(catalogue.begin(), catalogue.end(), EffectKind::kExternalDisturbance) !=
       catalogue.end()) {
     prepared_given.emplace(prepare_runs(runs_given, opt));
     const RoundModel m0 = initial_model(runs_given, *prepared_given);
     sims_given = simulate_diagnosed(runs_given, m0.effects, m0.scales, opt.simulation, opt.threads);
     res.disturbance = locate_external_disturbance(runs_given, m0, opt);
-    if (res.disturbance.named) {
-      runs_with_d = with_located_disturbance(runs_given, res.disturbance, data_with_d);
+    provisional = provisional_disturbance && !res.disturbance.named && res.disturbance.intervals > 0;
+    if (res.disturbance.named || provisional) {
+      DisturbanceFinding as_known = res.disturbance;
+      as_known.named = true;  // (with_located_disturbance adds only a named estimate)
+      runs_with_d = with_located_disturbance(runs_given, as_known, data_with_d);
       prepared_given.reset();
     }
   }
-  const std::vector<DiagnoseRun>& runs_in = res.disturbance.named ? runs_with_d : runs_given;
+  const bool with_d = res.disturbance.named || provisional;
+  const std::vector<DiagnoseRun>& runs_in = with_d ? runs_with_d : runs_given;
   // --- end external_disturbance
   const PreparedRuns prepared = prepared_given ? std::move(*prepared_given) : prepare_runs(runs_in, opt);
   res.fit_runs = prepared.fit_runs;
@@ -1907,6 +1916,38 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
         break;
       }
     }
+  }
+  // --- a provisional estimate judged again, with the effects the rounds named: named when the
+  // error over all runs drops by the significance with it known; else the rounds run again
+  // without it.
+  if (provisional) {
+    const double with = locate(runs_in, simulate_diagnosed(runs_in, model.effects, model.scales,
+                                                           opt.simulation, opt.threads, model.alpha))
+                            .rms;
+    const double without = locate(runs_given, simulate_diagnosed(runs_given, model.effects,
+                                                                 model.scales, opt.simulation,
+                                                                 opt.threads, model.alpha))
+                               .rms;
+    const std::string judged = "with the " + std::to_string(res.effects_named.size()) +
+                               " effect(s) the rounds named: RMS of theta - theta_sim " +
+                               num(without, "%.4g") + " -> " + num(with, "%.4g") + " with it known";
+    if (!(std::isfinite(with) && with <= (1.0 - opt.significance) * without)) {
+      DiagnoseResult out =
+          diagnose_with_disturbance(runs_given, catalogue, opt, res_given, t_start, false);
+      out.disturbance.message += "; kept as a known input while the rounds ran, and still not below "
+                                 "(1 - significance) x the error without it " + judged +
+                                 ": the rounds ran again without it";
+      return out;
+    }
+    res.disturbance.message = "located in time, significant " + judged + " (with the model given " +
+                              num(res.disturbance.error_before, "%.4g") + " -> " +
+                              num(res.disturbance.error_after, "%.4g") + ": masked by them)";
+    res.disturbance.named = true;
+    res.disturbance.error_before = without;
+    res.disturbance.error_after = with;
+    model.effects.disturbance_rms_v = res.disturbance.rms_v;
+    model.named.insert(model.named.begin(), EffectKind::kExternalDisturbance);
+    res.effects_named.insert(res.effects_named.begin(), EffectKind::kExternalDisturbance);
   }
   // --- the discovered term (discovered_term.hpp): when structure remains after the named
   // effects, a sparse term for the rest, fitted on the fit runs, judged on all runs ---------

@@ -423,10 +423,15 @@ DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const Prep
 
 /// The rounds of diagnose() after the options and runs are checked: the external_disturbance
 /// stage first (when `catalogue` has it), then the rounds and the verdict; returns `res` filled.
+/// A disturbance located but not significant with the model given (its error dominated by an
+/// effect the model misses) is kept as a known input while the rounds run, and judged again
+/// with the effects they named; when it is still not significant, the rounds run again without
+/// it (`provisional_disturbance` false).
 DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_given,
                                          const std::vector<EffectKind>& catalogue,
                                          const DiagnoseOptions& opt, DiagnoseResult res,
-                                         std::chrono::steady_clock::time_point t_start);
+                                         std::chrono::steady_clock::time_point t_start,
+                                         bool provisional_disturbance = true);
 
 /// The external_disturbance stage (DisturbanceFinding, diagnose.hpp; disturbance_stage.cpp): d̂
 /// located with `model` in every run and checked by simulation (with_located_disturbance()).

@@ -135,6 +135,34 @@ std::vector<std::vector<double>> state_basis(const std::vector<double>& theta,
   return b;
 }
 
+/// The period of the run's reference r [s] when it is periodic, else 0: its upward crossings of
+/// the midline (with a hysteresis of a quarter of the half-range, against noise), at least 5 of
+/// them, evenly spaced to 2 % (a sine, a square wave; not a hold, a ramp or a free run).
+double reference_period_s(const RunData& d) {
+  if (d.r.size() < 3) return 0.0;
+  const auto [lo, hi] = std::minmax_element(d.r.begin(), d.r.end());
+  const double mid = 0.5 * (*lo + *hi), half = 0.5 * (*hi - *lo);
+  if (!(half > 0.0) || !std::isfinite(half)) return 0.0;
+  std::vector<double> ups;
+  bool armed = false;  // r has been below mid − half/4 since the last crossing
+  for (std::size_t k = 1; k < d.r.size(); ++k) {
+    if (d.r[k] < mid - 0.25 * half) armed = true;
+    if (armed && d.r[k - 1] < mid && d.r[k] >= mid) {
+      const double f = (mid - d.r[k - 1]) / (d.r[k] - d.r[k - 1]);
+      ups.push_back(d.t[k - 1] + f * (d.t[k] - d.t[k - 1]));
+      armed = false;
+    }
+  }
+  if (ups.size() < 5) return 0.0;
+  double lo_gap = std::numeric_limits<double>::infinity(), hi_gap = 0.0;
+  for (std::size_t i = 1; i < ups.size(); ++i) {
+    lo_gap = std::min(lo_gap, ups[i] - ups[i - 1]);
+    hi_gap = std::max(hi_gap, ups[i] - ups[i - 1]);
+  }
+  const double period = (ups.back() - ups.front()) / static_cast<double>(ups.size() - 1);
+  return hi_gap - lo_gap <= 0.02 * period ? period : 0.0;
+}
+
 /// RMS of θ − θ_sim over all samples of all runs (NaN when a simulation failed).
 double error_over_runs(const std::vector<DiagnoseRun>& runs,
                        const std::vector<std::vector<double>>& sims) {
@@ -173,7 +201,9 @@ DisturbanceFinding locate_external_disturbance(const std::vector<DiagnoseRun>& r
     std::vector<bool> valid;
     run_torque_residual(d, s, model.effects, n_hat, valid, dth);
     const std::vector<double> span_ends = leave_out_jumps(d, valid);
-    f.runs[i] = locate_disturbance(d.t, n_hat, valid, dopt, state_basis(d.theta, dth));
+    DisturbanceOptions run_opt = dopt;
+    run_opt.reference_period_s = reference_period_s(d);
+    f.runs[i] = locate_disturbance(d.t, n_hat, valid, run_opt, state_basis(d.theta, dth));
     drop_transient_tails(d.t, span_ends, dopt.window_s, f.runs[i]);
   });
   double ss = 0.0, n = 0.0;

@@ -63,6 +63,7 @@ void DisturbanceOptions::validate() const {
     detail::bad("max_active_share", "a share in (0, 1]", max_active_share);
   }
   detail::require_nonnegative("min_interval_s", min_interval_s);
+  detail::require_nonnegative("reference_period_s", reference_period_s);
 }
 
 namespace {
@@ -92,6 +93,36 @@ std::vector<double> state_remainder(const std::vector<double>& n, const std::vec
     for (std::size_t j = 0; j < basis.size(); ++j) f += b(static_cast<Eigen::Index>(j + 1)) * basis[j][k];
     out[k] = n[k] - f;
   }
+  return out;
+}
+
+/// `n` less its part periodic with `period_s` (header: the median over the cycles of the samples
+/// `use` at each phase bin of width `bin_s`); `n` itself when the samples `use` span fewer than
+/// kMinPeriodicCycles cycles or period_s is 0.
+std::vector<double> without_periodic_part(const std::vector<double>& t, const std::vector<double>& n,
+                                          const std::vector<bool>& use, double period_s,
+                                          double bin_s) {
+  if (!(period_s > 0.0) || t.empty()) return n;
+  double first = std::numeric_limits<double>::infinity(), last = -first;
+  for (std::size_t k = 0; k < t.size(); ++k) {
+    if (use[k]) first = std::min(first, t[k]), last = std::max(last, t[k]);
+  }
+  if (!(last - first >= DisturbanceOptions::kMinPeriodicCycles * period_s)) return n;
+  const auto bins = static_cast<std::size_t>(std::max(8.0, std::round(period_s / bin_s)));
+  const auto bin_of = [&](double tk) {
+    const double phase = std::fmod(tk - t.front(), period_s) / period_s;  // [0, 1)
+    return std::min(bins - 1, static_cast<std::size_t>(phase * static_cast<double>(bins)));
+  };
+  std::vector<std::vector<double>> at(bins);
+  for (std::size_t k = 0; k < t.size(); ++k) {
+    if (use[k]) at[bin_of(t[k])].push_back(n[k]);
+  }
+  std::vector<double> med(bins, 0.0);
+  for (std::size_t b = 0; b < bins; ++b) {
+    if (!at[b].empty()) med[b] = median(at[b]);
+  }
+  std::vector<double> out(n.size());
+  for (std::size_t k = 0; k < n.size(); ++k) out[k] = n[k] - med[bin_of(t[k])];
   return out;
 }
 
@@ -128,12 +159,18 @@ DisturbanceEstimate locate_disturbance(const std::vector<double>& t, const std::
   for (const auto& col : basis) {
     for (std::size_t k = 0; k < n.size(); ++k) valid[k] = valid[k] && std::isfinite(col[k]);
   }
-  DisturbanceEstimate d = locate_once(t, state_remainder(n, valid, basis), valid, o);
-  if (basis.empty() || d.intervals.empty()) return d;
-  // Again with the state fitted without the intervals' samples (the pulses do not bend it).
+  const double bin_s = o.window_s / 5.0;
+  DisturbanceEstimate d = locate_once(
+      t, without_periodic_part(t, state_remainder(n, valid, basis), valid, o.reference_period_s, bin_s),
+      valid, o);
+  if ((basis.empty() && !(o.reference_period_s > 0.0)) || d.intervals.empty()) return d;
+  // Again with the state (and the periodic part) fitted without the intervals' samples (the
+  // pulses do not bend it).
   std::vector<bool> use = valid;
   for (std::size_t k = 0; k < t.size(); ++k) use[k] = use[k] && d.d_v[k] == 0.0;
-  return locate_once(t, state_remainder(n, use, basis), valid, o);
+  return locate_once(
+      t, without_periodic_part(t, state_remainder(n, use, basis), use, o.reference_period_s, bin_s),
+      valid, o);
 }
 
 namespace {

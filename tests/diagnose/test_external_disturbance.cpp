@@ -124,6 +124,73 @@ TEST(LocateDisturbance, RefusesBadInputNamingTheField) {
   } catch (const Error& e) {
     EXPECT_EQ(e.field(), "window_s");
   }
+  o = DisturbanceOptions{};
+  o.reference_period_s = -0.4;
+  try {
+    locate_disturbance(t, std::vector<double>(3, 0.0), {}, o);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.field(), "reference_period_s");
+  }
+}
+
+/// 1 kHz samples over 8 s: n̂ = a misfit periodic with a 0.4 s reference (a narrow spike and a
+/// ramp each cycle, 0.03 high: no function the caller passes), white noise (0.002), and three
+/// pulses of ±0.03 at times no cycle repeats.
+void periodic_with_pulses(std::vector<double>& t, std::vector<double>& n, std::vector<double>& truth) {
+  std::mt19937 rng(11);
+  std::normal_distribution<double> noise(0.0, 0.002);
+  for (int k = 0; k < 8000; ++k) {
+    const double tk = 1e-3 * k;
+    const double phase = std::fmod(tk, 0.4) / 0.4;
+    const double misfit = (phase < 0.15 ? 0.03 : 0.0) + 0.02 * (phase - 0.5);
+    double d = 0.0;
+    if (tk >= 1.13 && tk < 1.23) d = 0.03;
+    if (tk >= 3.71 && tk < 3.81) d = -0.03;
+    if (tk >= 6.37 && tk < 6.47) d = 0.03;
+    t.push_back(tk);
+    truth.push_back(d);
+    n.push_back(misfit + d + noise(rng));
+  }
+}
+
+TEST(LocateDisturbance, RemovesWhatRepeatsWithTheReferenceBeforeLocating) {
+  std::vector<double> t, n, truth;
+  periodic_with_pulses(t, n, truth);
+  const double starts[] = {1.13, 3.71, 6.37}, levels[] = {0.03, -0.03, 0.03};
+  const auto pulses_found = [&](const DisturbanceEstimate& e) {
+    int found = 0;
+    for (double s0 : starts) {
+      for (const DisturbanceInterval& iv : e.intervals) found += std::abs(iv.start_s - s0) < 0.01;
+    }
+    return found;
+  };
+  // Without the reference's period the cycle's spike spreads the window means: the pulses do not
+  // all stand out.
+  EXPECT_LT(pulses_found(locate_disturbance(t, n)), 3);
+  DisturbanceOptions o;
+  o.reference_period_s = 0.4;
+  const DisturbanceEstimate d = locate_disturbance(t, n, {}, o);
+  ASSERT_TRUE(d.ok) << d.message;
+  ASSERT_EQ(d.intervals.size(), 3u);
+  EXPECT_EQ(pulses_found(d), 3);
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_NEAR(d.intervals[i].start_s, starts[i], 0.01) << i;
+    EXPECT_NEAR(d.intervals[i].end_s, starts[i] + 0.1, 0.01) << i;
+    EXPECT_NEAR(d.intervals[i].level_v, levels[i], 0.004) << i;
+  }
+  // A torque that repeats every cycle is the reference's, not a disturbance: with the period, a
+  // pulse-free periodic misfit locates nothing.
+  std::vector<double> n_periodic(n.size());
+  for (std::size_t k = 0; k < n.size(); ++k) n_periodic[k] = n[k] - truth[k];
+  EXPECT_TRUE(locate_disturbance(t, n_periodic, {}, o).intervals.empty());
+  // Fewer than four cycles: the periodic part is not estimated (too few cycles for a median),
+  // the same as without the period.
+  std::vector<double> t_short(t.begin(), t.begin() + 1400), n_short(n.begin(), n.begin() + 1400);
+  const DisturbanceEstimate s = locate_disturbance(t_short, n_short, {}, o);
+  const DisturbanceEstimate s_blind = locate_disturbance(t_short, n_short);
+  EXPECT_EQ(s.spread_v, s_blind.spread_v);
+  EXPECT_EQ(s.intervals.size(), s_blind.intervals.size());
 }
 
 }  // namespace

@@ -200,7 +200,10 @@ struct DiagnoseRound {
 /// (external_disturbance.hpp), then checked by simulating every run with d̂ added to its
 /// `disturbance_v` column (a known input, plant_input.hpp). Named when some run has intervals and
 /// the RMS of θ − θ_sim over all runs drops below (1 − significance) × before; the rounds then
-/// run with d̂ known.
+/// run with d̂ known. Located but not significant with the model given (masked by an effect the
+/// model misses): the rounds run with d̂ known, and it is judged again with the effects they
+/// named (error_before/error_after are then that check's, the message gives both); still not
+/// significant, the rounds run again without it.
 struct DisturbanceFinding {
   bool tried = false;   ///< the candidates include external_disturbance
   bool named = false;   ///< located, and the error over all runs drops (above)
