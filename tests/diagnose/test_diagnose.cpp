@@ -272,7 +272,8 @@ TEST(DiagnosePairs, NamesAGravitySpringAndADelayThatMaskEachOther) {
   // Together: named in one round, in the order of their single scores.
   EXPECT_EQ(rd.named, EffectKind::kGravity);
   EXPECT_EQ(rd.named_second, EffectKind::kTimeDelay);
-  ASSERT_EQ(r.effects_named, (std::vector<EffectKind>{EffectKind::kGravity, EffectKind::kTimeDelay}));
+  ASSERT_EQ(r.effects_named, (std::vector<EffectKind>{EffectKind::kGravity, EffectKind::kTimeDelay}))
+      << r.disturbance.message;
   ASSERT_FALSE(rd.pairs.empty());
   EXPECT_LE(rd.pairs.size(), 3u);
   std::size_t named = 0;
