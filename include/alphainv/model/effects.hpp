@@ -24,8 +24,9 @@
 /// (below): its name, its parameters with units, checks and search bounds, its modelling choices,
 /// how it enters the equation, the search grid and starts `omni_fit diagnose` uses, and how
 /// `omni_gen` and `omni_fit sweep` set and draw it. A new effect is a member of Effects, its term
-/// in detail::effect_torque_terms() (with its on-test and arguments in DividedArguments and
-/// TorqueEffects, torque_effects.hpp) or amplifier() (its physics), one table entry, and its tests
+/// in detail::effect_torque_sum() (a detail::TorqueTerm value, its on-test and arguments in
+/// DividedArguments and TorqueEffects, torque_effects.hpp, and its bit in
+/// TorqueEffects::terms_on()) or amplifier() (its physics), one table entry, and its tests
 /// (docs/architecture.md).
 
 #include <algorithm>
