@@ -158,6 +158,48 @@ TEST(TorqueEffects, FrictionAloneIsZeroAtRestExactly) {
   }
 }
 
+TEST(TorqueEffects, SumTermsTellsEachTermAndItsPlainSumIsTheTorqueBitForBit) {
+  Effects e;
+  e.offset_v = -0.01;
+  e.coulomb_v = 0.02;
+  e.cogging_v = 0.01;
+  e.cogging_period_rad = 0.016;
+  e.gravity_v = 0.05;
+  e.gravity_theta0_rad = 0.2;
+  const TorqueEffects t(e);
+  using detail::TorqueTerm;
+  using detail::torque_term_bit;
+  EXPECT_EQ(t.terms_on(), torque_term_bit(TorqueTerm::kCoulomb) | torque_term_bit(TorqueTerm::kGravity) |
+                              torque_term_bit(TorqueTerm::kCogging));
+  EXPECT_EQ(TorqueEffects().terms_on(), 0u);
+  // A sum that keeps the Coulomb term apart: offset, gravity and cogging in one part, the
+  // friction in the other; together the plain sum, bit for bit (same addends, same order).
+  struct Split {
+    double still = 0.0, coulomb = 0.0;
+    int calls = 0;
+    void start(double offset) { still = offset; }
+    void add(TorqueTerm term, double addend) {
+      ++calls;
+      (term == TorqueTerm::kCoulomb ? coulomb : still) += addend;
+    }
+  };
+  for (double theta : {-0.05, 0.0, 0.031}) {
+    for (double w : {-0.4, 0.0, 2e-4, 0.7}) {
+      Split split;
+      t.sum_terms(theta, w, split);
+      EXPECT_EQ(split.calls, 3);
+      // Coulomb's addend alone: −Fc·tanh(θ̇/ε), with the other terms as written.
+      EXPECT_NEAR(split.coulomb, -0.02 * std::tanh(w / e.coulomb_smoothing_rad_s), 1e-15);
+      const double still = -0.01 - 0.05 * std::sin(theta + 0.2) +
+                           0.01 * std::sin(6.283185307179586 * theta / 0.016);
+      EXPECT_NEAR(split.still, still, 1e-15);
+      detail::PlainTorqueSum plain;
+      t.sum_terms(theta, w, plain);
+      EXPECT_EQ(plain.n, t.torque(theta, w));
+    }
+  }
+}
+
 TEST(TorqueEffects, PlantTorqueOverloadAddsTheKnownDisturbance) {
   Effects e = one_effect(EffectKind::kCoulombFriction);
   e.offset_v = 0.003;
