@@ -82,13 +82,15 @@ Compensator::Compensator(const CompensatorConfig& config, const Effects& model_e
   Effects torque_group, moving_group;
   for (const EffectSpec& spec : kEffectCatalogue) {
     if (spec.role != EffectRole::kTorque || !spec.active(model_effects)) continue;
+    const auto add_to = [&](Effects& group) {
+      for (const EffectParameter& q : spec) group.*(q.member) = model_effects.*(q.member);
+    };
     Effects alone;
-    for (const EffectParameter& q : spec) alone.*(q.member) = model_effects.*(q.member);
-    for (const EffectParameter& q : spec) torque_group.*(q.member) = model_effects.*(q.member);
+    add_to(alone);
+    add_to(torque_group);
     if (!depends_on_velocity(alone)) continue;
-    for (const EffectParameter& q : spec) moving_group.*(q.member) = model_effects.*(q.member);
+    add_to(moving_group);
     moving_terms_ |= TorqueEffects(alone).terms_on();
-    any_moving_ = true;
   }
   torque_effects_ = TorqueEffects(torque_group);
   moving_zero_at_rest_ = TorqueEffects(moving_group).zero_at_rest();

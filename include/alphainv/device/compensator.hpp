@@ -189,7 +189,6 @@ class Compensator {
   /// torque depends on θ̇ (probed once, in the constructor, through the catalogue).
   TorqueEffects torque_effects_;
   unsigned moving_terms_ = 0;
-  bool any_moving_ = false;
   /// Whether the moving terms vanish at θ̇ = 0 by construction (TorqueEffects::zero_at_rest()).
   bool moving_zero_at_rest_ = true;
   double period_s_;
@@ -233,7 +232,7 @@ inline double Compensator::effect_torque_estimate(double w, double breakaway) co
   // One pass at w_c: the terms that do not depend on θ̇ are the same there as at rest.
   SplitTorqueSum sum;
   sum.moving_terms = moving_terms_;
-  if (!any_moving_) {
+  if (moving_terms_ == 0u) {  // nothing depends on θ̇
     torque_effects_.sum_terms(theta_lead, 0.0, sum);
     return sum.still;
   }
