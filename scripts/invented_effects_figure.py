@@ -50,10 +50,11 @@ def main():
     ap.add_argument("--out", default="/tmp/invented_effects")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
-    rows, passed = [], 0
+    rows, passed, passed_structure = [], 0, 0
     print("| invented | seed | named | verdict | discovered (kept) | reading | gap closed by it | "
-          "RMS before -> after | overall gap cut | pass |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+          "RMS before -> after | overall gap cut | judged structure before -> after (gap closed) | "
+          "pass (whole RMS) | pass (judged structure) |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for kind in a.kinds:
         for seed in a.seeds:
             j = run_case(a.bin, a.out, kind, KINDS[kind], seed)
@@ -65,15 +66,22 @@ def main():
             eb, ea = j["error_before"], j["error_after"]
             overall = (eb - ea) / (eb - floor) if eb is not None and eb > floor else float("nan")
             whole_story_claimed = j["verdict"] == "explained" and not kept
+            sgap = d.get("structure_gap_closed")
+            sb, sa = d.get("structure_before"), d.get("structure_after")
             ok = (not whole_story_claimed) and kept and gap is not None and gap >= 0.5
+            ok_structure = (not whole_story_claimed) and kept and sgap is not None and sgap >= 0.5
             passed += ok
             eq = d.get("equation", d.get("message", "not tried"))
             print(f"| {kind} | {seed} | {', '.join(named)} | {j['verdict']} | "
                   f"{eq} ({'kept' if kept else 'not kept'}) | {d.get('reading', '-')} | "
                   f"{'-' if gap is None else f'{100 * gap:.0f} %'} | {eb:.3g} -> {ea:.3g} | "
-                  f"{100 * overall:.0f} % | {'yes' if ok else 'no'} |", flush=True)
+                  f"{100 * overall:.0f} % | "
+                  f"{'-' if sb is None else f'{sb:.3g} -> {sa:.3g}'} "
+                  f"({'-' if sgap is None else f'{100 * sgap:.0f} %'}) | "
+                  f"{'yes' if ok else 'no'} | {'yes' if ok_structure else 'no'} |", flush=True)
+            passed_structure += ok_structure
             rows.append(j)
-    print(f"\n{passed} of {len(rows)} cases pass")
+    print(f"\n{passed} of {len(rows)} cases pass on the whole RMS, {passed_structure} on the judged structure")
     with open(os.path.join(a.out, "invented_effects.json"), "w") as f:
         json.dump(rows, f, indent=1)
     return 0

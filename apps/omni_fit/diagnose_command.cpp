@@ -87,12 +87,16 @@ nlohmann::json result_json(const DiagnoseResult& res) {
     nlohmann::json p = nlohmann::json::object();
     for (const DiscoveredTermEntry& t : d.terms) p[t.name] = num(t.coefficient);
     for (const auto& par : effect_parameters(EffectKind::kDiscovered, true)) {
-      if (par.modelling_choice) p[par.name] = num(d.effects.*(par.member));
+      if (par.modelling_choice) p[par.name] = num(d.term_effects.*(par.member));
     }
     nlohmann::json entry = {{"effect", effect_name(EffectKind::kDiscovered)}, {"parameters", p},
                             {"terms", terms}, {"equation", d.equation}, {"reading", d.reading},
                             {"error_before", num(d.error_before)}, {"error_after", num(d.error_after)},
                             {"gap_closed", num(d.gap_closed)}, {"kept", d.kept},
+                            {"structure_before", num(d.structure_before)},
+                            {"structure_after", num(d.structure_after)},
+                            {"structure_gap_closed", num(d.structure_gap_closed)},
+                            {"memory_error_after", num(d.memory_error_after)},
                             {"carries_remainder", d.carries_remainder}};
     if (d.kept) named.push_back(entry);
     j["discovered"] = entry;

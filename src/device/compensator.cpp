@@ -94,11 +94,15 @@ Compensator::Compensator(const CompensatorConfig& config, const Effects& model_e
   }
   torque_effects_ = TorqueEffects(torque_group);
   moving_zero_at_rest_ = TorqueEffects(moving_group).zero_at_rest();
+  memory_on_ = discovered_memory_active(model_effects);
+  memory_lag_decay_ = DiscoveredMemory::lag_decay(model_effects, period_s);
 }
 
 void Compensator::reset() noexcept {
   have_state_ = false;
   theta_hat_ = theta_meas_ = velocity_ = 0.0;
+  memory_.reset(0.0);
+  memory_torque_ = 0.0;
 }
 
 }  // namespace alphainv::rt

@@ -13,6 +13,8 @@ OneStepPredictor::OneStepPredictor(const ControlLoopConfig& config)
       period_s_(config.period_s),
       delay_ticks_(ControlLoop::delay_ticks(config)) {
   v_history_.assign(delay_ticks_ + 1, 0.0);
+  memory_on_ = discovered_memory_active(config.effects);
+  memory_lag_decay_ = DiscoveredMemory::lag_decay(config.effects, config.period_s);
 }
 
 void OneStepPredictor::reset() noexcept {
@@ -23,6 +25,8 @@ void OneStepPredictor::reset() noexcept {
   e_prev_ = 1.0;
   a_prev_ = inv_a_prev_ = 0.0;
   theta_pred_next_ = 0.0;
+  memory_started_ = false;
+  memory_.reset(0.0);
 }
 
 void OneStepPredictor::add(TickRecord& rec) noexcept {
@@ -62,9 +66,15 @@ void OneStepPredictor::add(TickRecord& rec) noexcept {
     const double theta_dot_prev = (theta - theta_prev - g_prev * (T - a_prev_)) * inv_a_prev_;
     const double theta_dot = theta_dot_prev * e_prev_ + g_prev * (1.0 - e_prev_);
     // u: the command through the effects plus their torque n(θ, θ̇), held over the tick.
-    const double u = v_model + (torque_effects_.any()
-                                    ? plant_torque(torque_effects_, rec.t_s, theta, theta_dot)
-                                    : 0.0);
+    double u = v_model + (torque_effects_.any()
+                              ? plant_torque(torque_effects_, rec.t_s, theta, theta_dot)
+                              : 0.0);
+    if (memory_on_) {
+      if (memory_started_) memory_.advance(effects_, memory_lag_decay_, theta - theta_prev, theta_dot);
+      else memory_.reset(theta_dot);
+      memory_started_ = true;
+      u += memory_.torque(effects_);
+    }
     theta_pred_next_ = theta + theta_dot * a + (gain * u) * (T - a);
     u_prev_ = u;
     have_pred_ = true;

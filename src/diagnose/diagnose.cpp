@@ -97,8 +97,10 @@ std::vector<std::size_t> choose_fit_runs(const std::vector<DiagnoseRun>& runs, s
   return out;
 }
 
-/// The residuals θ − θ_sim of `sims` (one per run; empty for a failed run: left out) as the
-/// verdict reads them.
+}  // namespace
+
+namespace diagnose_detail {
+
 std::vector<ResidualSeries> residual_series(const std::vector<DiagnoseRun>& runs,
                                             const std::vector<std::vector<double>>& sims) {
   std::vector<ResidualSeries> out;
@@ -117,10 +119,6 @@ std::vector<ResidualSeries> residual_series(const std::vector<DiagnoseRun>& runs
   }
   return out;
 }
-
-}  // namespace
-
-namespace diagnose_detail {
 
 TorqueResidual torque_residual(const std::vector<DiagnoseRun>& runs,
                                const std::vector<std::size_t>& fit_runs,
@@ -148,6 +146,7 @@ TorqueResidual torque_residual(const std::vector<DiagnoseRun>& runs,
       tr.theta.push_back(d.theta[k]);
       tr.theta_dot.push_back(dth[k]);
       tr.run.push_back(i);
+      tr.t.push_back(d.t[k]);
     }
   }
   return tr;

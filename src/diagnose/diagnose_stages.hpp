@@ -58,11 +58,17 @@ struct ParamBlock {
 struct TorqueResidual {
   std::vector<double> n_hat, theta, theta_dot;
   std::vector<std::size_t> run;  ///< the run (index into the runs given) of each sample
+  std::vector<double> t;         ///< its time [s] (a run's samples are in time order)
   /// C·θ̇/β̃ and u at the samples: n̂ changes by (g − 1)·C·θ̇/β̃ with a factor g on C, and by
   /// (1/f − 1)·(n̂ + u) ≈ (1/f − 1)·u with a factor f on β̃ (the discovered term's regression
   /// fits them beside its library, discovered_term.hpp).
   std::vector<double> damping_torque, plant_input;
 };
+
+/// The residuals θ − θ_sim of `sims` (one per run; empty for a failed run: left out) as the
+/// verdict reads them.
+std::vector<ResidualSeries> residual_series(const std::vector<DiagnoseRun>& runs,
+                                            const std::vector<std::vector<double>>& sims);
 
 /// n̂ along `fit_runs` of `runs` from the current model's simulations `sims` (one per run; a
 /// failed one is skipped) with the effects `current` in the plant input; the first and last

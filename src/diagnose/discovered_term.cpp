@@ -2,6 +2,7 @@
 #include "diagnose_stages.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <map>
@@ -25,6 +26,56 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 using Support = std::vector<std::size_t>;
+
+/// The terms a discovered support indexes: the library (0 … kDiscoveredTerms − 1), then the two
+/// memory terms (effects.hpp DiscoveredMemory).
+constexpr std::size_t kLagTerm = kDiscoveredTerms;
+constexpr std::size_t kDahlTerm = kDiscoveredTerms + 1;
+constexpr std::size_t kAllTerms = kDiscoveredTerms + 2;
+
+double Effects::*term_member(std::size_t j) {
+  if (j < kDiscoveredTerms) return kDiscoveredLibrary[j].coefficient;
+  return j == kLagTerm ? &Effects::discovered_lag_sign_v : &Effects::discovered_dahl_v;
+}
+const char* term_formula(std::size_t j) {
+  if (j < kDiscoveredTerms) return kDiscoveredLibrary[j].formula;
+  return j == kLagTerm ? "tanh(f/eps_f)" : (j == kDahlTerm ? "z" : "?");
+}
+/// Its model.json name (the table's parameters: the library, four scales, the memory terms).
+const char* term_name(std::size_t j) {
+  return effect_spec(EffectKind::kDiscovered).parameters[j < kDiscoveredTerms ? j : j + 4].name;
+}
+
+/// The memory terms' scales tried (a grid; the folds choose): the lag's T_f [s], and the Dahl
+/// displacement δ as a fraction of the data's position scale θ_r (so the grid does not depend on
+/// the position unit).
+constexpr std::array<double, 5> kLagGridS = {0.002, 0.005, 0.01, 0.02, 0.05};
+constexpr std::array<double, 5> kDahlGridFraction = {0.001, 0.003, 0.01, 0.03, 0.1};
+
+/// The memory terms' columns tanh(f/ε) and z along the torque residual's samples, each run's
+/// samples in time order (a gap or a new run starts the state again: f = θ̇, z = 0), the
+/// displacement over a sample from θ̇ (trapezoid: the measured θ's noise would turn z over).
+void memory_columns(const diagnose_detail::TorqueResidual& tr, const Effects& scales,
+                    std::vector<double>& lag, std::vector<double>& dahl) {
+  Effects e = scales;
+  e.discovered_dahl_v = 1.0;  // advance() turns z only for a Dahl term that is on
+  e.discovered_lag_sign_v = 0.0;
+  const std::size_t n = tr.theta_dot.size();
+  lag.assign(n, 0.0);
+  dahl.assign(n, 0.0);
+  DiscoveredMemory m;
+  for (std::size_t k = 0; k < n; ++k) {
+    const double dt = k > 0 ? tr.t[k] - tr.t[k - 1] : 0.0;
+    if (k == 0 || tr.run[k] != tr.run[k - 1] || !(dt > 0.0) || dt > 0.05) {
+      m.reset(tr.theta_dot[k]);
+    } else {
+      m.advance(e, std::exp(-dt / e.discovered_lag_s), 0.5 * (tr.theta_dot[k] + tr.theta_dot[k - 1]) * dt,
+                tr.theta_dot[k]);
+    }
+    lag[k] = std::tanh(m.lag_velocity_rad_s / e.discovered_lag_smoothing_rad_s);
+    dahl[k] = m.dahl_state;
+  }
+}
 
 /// The per-fold sufficient statistics of the scaled regression: Gram matrix, Xᵀy, yᵀy, samples.
 struct FoldStats {
@@ -326,6 +377,21 @@ std::vector<std::pair<std::string, std::vector<std::size_t>>> discovered_named_f
 
 std::string discovered_reading(const Effects& e) {
   using common::format;
+  if (discovered_memory_active(e)) {
+    std::string mem;
+    if (e.discovered_lag_sign_v != 0.0)
+      mem += format("a friction %.3g that follows the velocity with a lag of %.3g s",
+                    -e.discovered_lag_sign_v, e.discovered_lag_s);
+    if (e.discovered_dahl_v != 0.0)
+      mem += std::string(mem.empty() ? "" : "; ") +
+             format("a friction %.3g that turns over a displacement of %.3g after a reversal "
+                    "(pre-sliding, Dahl-like)", -e.discovered_dahl_v, e.discovered_dahl_rad);
+    Effects rest = e;
+    rest.discovered_lag_sign_v = rest.discovered_dahl_v = 0.0;
+    const std::string r = discovered_reading(rest);
+    return "a friction with memory (no named effect has it): " + mem +
+           (r == "nothing" ? std::string() : "; beside it " + r);
+  }
   Support s;
   for (std::size_t k = 0; k < kDiscoveredTerms; ++k) {
     if (e.*kDiscoveredLibrary[k].coefficient != 0.0) s.push_back(k);
@@ -391,25 +457,35 @@ SimulationResult simulate_with(const DiagnoseRun& run, const Effects& e, const M
   return simulate_recorded_run(diagnosed_model(run.model, e, sc, alpha), run.controller, d, x0, so);
 }
 
-/// RMS of θ − θ_sim over all samples of all runs (a failed run: infinity).
-double error_over(const std::vector<DiagnoseRun>& runs, const Effects& e, const ModelScales& sc,
-                  const std::optional<AlphaModel>& alpha, const DiscoveredTermOptions& opt) {
+/// Over all runs: the RMS of θ − θ_sim over all samples (a failed run: infinity) and the
+/// structure the verdict judges (verdict.hpp structure_rms(); NaN when a run failed).
+struct OverAll {
+  double rms = kInf;
+  double structure = kNaN;
+};
+OverAll error_over(const std::vector<DiagnoseRun>& runs, const Effects& e, const ModelScales& sc,
+                   const std::optional<AlphaModel>& alpha, const DiscoveredTermOptions& opt) {
   std::vector<double> ss(runs.size(), 0.0);
+  std::vector<std::vector<double>> thetas(runs.size());
   common::parallel_for(runs.size(), opt.threads, [&](std::size_t i) {
-    const SimulationResult s = simulate_with(runs[i], e, sc, alpha, opt.simulation);
+    SimulationResult s = simulate_with(runs[i], e, sc, alpha, opt.simulation);
     const RunData& d = *runs[i].data;
     if (!s.ok || s.theta.size() != d.size()) {
       ss[i] = kInf;
       return;
     }
     for (std::size_t k = 0; k < d.size(); ++k) ss[i] += (d.theta[k] - s.theta[k]) * (d.theta[k] - s.theta[k]);
+    thetas[i] = std::move(s.theta);
   });
   double total = 0.0, n = 0.0;
   for (std::size_t i = 0; i < runs.size(); ++i) {
     total += ss[i];
     n += static_cast<double>(runs[i].data->size());
   }
-  return n > 0 ? std::sqrt(total / n) : kNaN;
+  OverAll out;
+  out.rms = n > 0 ? std::sqrt(total / n) : kNaN;
+  if (std::isfinite(out.rms)) out.structure = structure_rms(diagnose_detail::residual_series(runs, thetas));
+  return out;
 }
 
 }  // namespace
@@ -478,17 +554,35 @@ DiscoveredTermResult discover_term(const std::vector<DiagnoseRun>& fit_runs,
   }
   sc.theta_dot_rms = std::sqrt(ss / static_cast<double>(tr0.theta.size()));
   Effects e = base.effects;
-  for (const DiscoveredFunction& f : kDiscoveredLibrary) e.*f.coefficient = 0.0;
+  for (std::size_t j = 0; j < kAllTerms; ++j) e.*term_member(j) = 0.0;
   detail::discovered_scales(sc, e);
   const double bound = 2.0 * std::max(sc.v_max, 1e-12);
-  // 2. Sparse regression of n̂ on the library, with the model's own coefficient factors as fixed
-  // columns (what the output-error fit frees too).
-  auto regress = [&](const diagnose_detail::TorqueResidual& tr) {
+  // The memory terms' scales: nullopt, the library alone.
+  struct MemoryScales {
+    double lag_s = 0.0, dahl_rad = 0.0;
+  };
+  auto with_scales = [&](const std::optional<MemoryScales>& mem) {
+    Effects t = e;
+    if (mem) {
+      t.discovered_lag_s = mem->lag_s;
+      t.discovered_dahl_rad = mem->dahl_rad;
+      t.discovered_lag_smoothing_rad_s = t.discovered_smoothing_rad_s;  // σ's, refined by output error
+    }
+    return t;
+  };
+  // 2. Sparse regression of n̂ on the library (and the memory terms at scales `mem`), with the
+  // model's own coefficient factors as fixed columns (what the output-error fit frees too).
+  auto regress = [&](const diagnose_detail::TorqueResidual& tr, const std::optional<MemoryScales>& mem) {
     std::vector<std::vector<double>> cols(kDiscoveredTerms, std::vector<double>(tr.theta.size()));
     std::array<double, kDiscoveredTerms> phi{};
     for (std::size_t k = 0; k < tr.theta.size(); ++k) {
       discovered_basis(e, tr.theta[k], tr.theta_dot[k], phi);
       for (std::size_t j = 0; j < kDiscoveredTerms; ++j) cols[j][k] = phi[j];
+    }
+    if (mem) {
+      cols.emplace_back();
+      cols.emplace_back();
+      memory_columns(tr, with_scales(mem), cols[kLagTerm], cols[kDahlTerm]);
     }
     cols.push_back(tr.damping_torque);
     cols.push_back(tr.plant_input);
@@ -496,22 +590,48 @@ DiscoveredTermResult discover_term(const std::vector<DiagnoseRun>& fit_runs,
     ro.fixed_columns = 2;
     return sparse_regression(cols, tr.n_hat, tr.run, discovered_named_forms(), ro);
   };
-  auto term_of = [&](const SparseRegressionResult& r) {
-    Effects t = e;
-    for (std::size_t j : r.chosen.terms)
-      t.*kDiscoveredLibrary[j].coefficient = std::clamp(r.coefficients[j], -bound, bound);
+  auto term_of = [&](const SparseRegressionResult& r, const std::optional<MemoryScales>& mem) {
+    Effects t = with_scales(mem);
+    for (std::size_t j : r.chosen.terms) t.*term_member(j) = std::clamp(r.coefficients[j], -bound, bound);
     return t;
   };
-  res.regression = regress(tr0);
+  auto has_memory = [](const SparseRegressionResult& r) {
+    for (std::size_t j : r.chosen.terms)
+      if (j == kLagTerm || j == kDahlTerm) return true;
+    return false;
+  };
+  res.regression = regress(tr0, std::nullopt);
   if (!res.regression.ok) {
     res.message = "sparse regression: " + res.regression.message;
     return done();
   }
-  res.error_before = error_over(all_runs, base.effects, base.scales, base.alpha, opt);
-  if (res.regression.chosen.terms.empty()) {
+  // The memory terms over their grid (digital loop only: their state advances once per tick):
+  // the scales whose chosen support has a memory term and the lowest cross-validated RMS, a
+  // contender when that is below the library's own choice.
+  std::optional<MemoryScales> memory;
+  SparseRegressionResult memory_regression;
+  if (opt.memory && opt.simulation.loop_period_s > 0.0) {
+    for (double lag_s : kLagGridS) {
+      for (double fraction : kDahlGridFraction) {
+        const MemoryScales m{lag_s, fraction * e.discovered_position_scale_rad};
+        SparseRegressionResult r = regress(tr0, m);
+        if (!r.ok || !has_memory(r)) continue;
+        const double best_so_far = memory ? memory_regression.chosen.cv_rms : res.regression.chosen.cv_rms;
+        if (r.chosen.cv_rms < best_so_far) {
+          memory = m;
+          memory_regression = std::move(r);
+        }
+      }
+    }
+  }
+  const OverAll before = error_over(all_runs, base.effects, base.scales, base.alpha, opt);
+  res.error_before = before.rms;
+  res.structure_before = before.structure;
+  if (res.regression.chosen.terms.empty() && !memory) {
     res.ok = true;
     res.message = "the library explains nothing of the torque the model leaves (cross-validated)";
     res.error_after = res.error_before;
+    res.structure_after = res.structure_before;
     res.reading = "nothing";
     res.equation = "n = 0";
     return done();
@@ -525,13 +645,14 @@ DiscoveredTermResult discover_term(const std::vector<DiagnoseRun>& fit_runs,
     ModelScales scales;
     OutputErrorResult oe;
     double error_after = kInf;
+    double structure_after = kNaN;
   };
-  auto fit_oe = [&](const SparseRegressionResult& reg, const std::optional<AlphaModel>& alpha,
-                    const ModelScales& start_scales) {
+  auto fit_oe = [&](const SparseRegressionResult& reg, const std::optional<MemoryScales>& mem,
+                    const std::optional<AlphaModel>& alpha, const ModelScales& start_scales) {
     Fitted f;
     f.regression = reg;
     f.alpha = alpha;
-    const Effects start = term_of(reg);
+    const Effects start = term_of(reg, mem);
     const Support s = reg.chosen.terms;
     OutputErrorProblem pr;
     for (const DiagnoseRun& r : oe_runs) pr.runs.push_back({r.data, r.controller, 1.0, r.command_history});
@@ -541,17 +662,30 @@ DiscoveredTermResult discover_term(const std::vector<DiagnoseRun>& fit_runs,
     for (std::size_t k = 0; k < nb; ++k)
       pr.parameters.push_back({"beta_scale_" + std::to_string(k), start_scales.beta[k], 0.2, 5.0});
     for (std::size_t j : s) {
-      const double x = start.*kDiscoveredLibrary[j].coefficient;
+      const double x = start.*term_member(j);
       const double b = std::max(bound, 4.0 * std::abs(x));
-      pr.parameters.push_back({effect_spec(EffectKind::kDiscovered).parameters[j].name, x, -b, b});
+      pr.parameters.push_back({term_name(j), x, -b, b});
     }
+    // A memory term's scale is refined too, within a factor 3 of its grid value (the grid's
+    // neighbours), so the term's form is not tied to the grid.
+    const bool lag = std::find(s.begin(), s.end(), kLagTerm) != s.end();
+    const bool dahl = std::find(s.begin(), s.end(), kDahlTerm) != s.end();
+    if (lag) pr.parameters.push_back({"discovered_lag_s", start.discovered_lag_s, start.discovered_lag_s / 3.0, 3.0 * start.discovered_lag_s});
+    // (and the lag's smoothing, from σ's: a friction sign as soft as the data says, within 10×)
+    const double eps_f = start.discovered_lag_smoothing_rad_s;
+    if (lag) pr.parameters.push_back({"discovered_lag_smoothing_rad_s", eps_f, eps_f / 10.0, 10.0 * eps_f});
+    if (dahl) pr.parameters.push_back({"discovered_dahl_rad", start.discovered_dahl_rad, start.discovered_dahl_rad / 3.0, 3.0 * start.discovered_dahl_rad});
     pr.simulation = opt.simulation;
     pr.max_residuals_per_run = opt.max_residuals_per_run;
     const std::vector<DiagnoseRun>* runs_ptr = &oe_runs;
-    auto apply = [nc, nb, s](const double* p, Effects& ef, ModelScales& ms) {
+    auto apply = [nc, nb, s, lag, dahl](const double* p, Effects& ef, ModelScales& ms) {
       ms.c.assign(p, p + nc);
       ms.beta.assign(p + nc, p + nc + nb);
-      for (std::size_t m = 0; m < s.size(); ++m) ef.*kDiscoveredLibrary[s[m]].coefficient = p[nc + nb + m];
+      for (std::size_t m = 0; m < s.size(); ++m) ef.*term_member(s[m]) = p[nc + nb + m];
+      std::size_t next = nc + nb + s.size();
+      if (lag) ef.discovered_lag_s = p[next++];
+      if (lag) ef.discovered_lag_smoothing_rad_s = p[next++];
+      if (dahl) ef.discovered_dahl_rad = p[next];
     };
     pr.model = [runs_ptr, start, alpha, apply](const double* p, std::size_t i) {
       Effects ef = start;
@@ -568,30 +702,44 @@ DiscoveredTermResult discover_term(const std::vector<DiagnoseRun>& fit_runs,
     if (f.oe.ok) apply(f.oe.values.data(), f.effects, f.scales);
     if (!(f.oe.ok && f.oe.standard_errors.size() == pr.parameters.size())) f.oe.standard_errors.clear();
     else f.oe.standard_errors.erase(f.oe.standard_errors.begin(), f.oe.standard_errors.begin() + static_cast<std::ptrdiff_t>(nc + nb));
-    f.error_after = error_over(all_runs, f.effects, f.scales, alpha, opt);
+    const OverAll after = error_over(all_runs, f.effects, f.scales, alpha, opt);
+    f.error_after = after.rms;
+    f.structure_after = after.structure;
     return f;
   };
-  Fitted best = fit_oe(res.regression, base.alpha, base.scales);
-  // The α-model identified again with the term in the plant input, and the regression repeated
-  // on what that model leaves (at unit factors), twice; kept when it does better over all runs.
-  if (base.reidentify) {
-    ModelScales unit = base.scales;
-    std::fill(unit.c.begin(), unit.c.end(), 1.0);
-    std::fill(unit.beta.begin(), unit.beta.end(), 1.0);
-    SparseRegressionResult reg = res.regression;
-    std::optional<AlphaModel> alpha;
-    for (int pass = 0; pass < 2; ++pass) {
-      const std::optional<AlphaModel> a = base.reidentify(term_of(reg));
-      if (!a) break;
-      const SparseRegressionResult r = regress(residual_of(base.effects, unit, a));
-      if (!r.ok || r.chosen.terms.empty()) break;
-      reg = r;
-      alpha = a;
+  // One contender (the library's choice, or the memory terms' at their scales): output error
+  // from the base's α-model, then with the α-model identified again with the term in the plant
+  // input and the regression repeated on what that model leaves (at unit factors), twice; the
+  // better over all runs.
+  auto fit_contender = [&](const SparseRegressionResult& first, const std::optional<MemoryScales>& mem) {
+    Fitted best = fit_oe(first, mem, base.alpha, base.scales);
+    if (base.reidentify) {
+      ModelScales unit = base.scales;
+      std::fill(unit.c.begin(), unit.c.end(), 1.0);
+      std::fill(unit.beta.begin(), unit.beta.end(), 1.0);
+      SparseRegressionResult reg = first;
+      std::optional<AlphaModel> alpha;
+      for (int pass = 0; pass < 2; ++pass) {
+        const std::optional<AlphaModel> a = base.reidentify(term_of(reg, mem));
+        if (!a) break;
+        const SparseRegressionResult r = regress(residual_of(base.effects, unit, a), mem);
+        if (!r.ok || r.chosen.terms.empty()) break;
+        reg = r;
+        alpha = a;
+      }
+      if (alpha) {
+        Fitted re = fit_oe(reg, mem, alpha, unit);
+        if (re.error_after < best.error_after) best = std::move(re);
+      }
     }
-    if (alpha) {
-      Fitted re = fit_oe(reg, alpha, unit);
-      if (re.error_after < best.error_after) best = std::move(re);
-    }
+    return best;
+  };
+  Fitted best;
+  if (!res.regression.chosen.terms.empty()) best = fit_contender(res.regression, std::nullopt);
+  if (memory) {
+    Fitted with_memory = fit_contender(memory_regression, memory);
+    res.memory_error_after = with_memory.error_after;
+    if (!best.regression.ok || with_memory.error_after < best.error_after) best = std::move(with_memory);
   }
   res.regression = best.regression;
   res.alpha = best.alpha;
@@ -601,30 +749,43 @@ DiscoveredTermResult discover_term(const std::vector<DiagnoseRun>& fit_runs,
   res.effects = fitted;
   res.scales = best.scales;
   res.error_after = best.error_after;
+  res.structure_after = best.structure_after;
   const Support s = res.regression.chosen.terms;
   for (std::size_t m = 0; m < s.size(); ++m) {
     const std::size_t j = s[m];
     DiscoveredTermEntry t;
     t.index = j;
-    t.name = effect_spec(EffectKind::kDiscovered).parameters[j].name;
-    t.formula = kDiscoveredLibrary[j].formula;
-    t.coefficient = fitted.*kDiscoveredLibrary[j].coefficient;
+    t.name = term_name(j);
+    t.formula = term_formula(j);
+    t.coefficient = fitted.*term_member(j);
     t.standard_error = m < oe.standard_errors.size() ? oe.standard_errors[m] : kNaN;
     t.regression_coefficient = res.regression.coefficients[j];
     t.regression_standard_error = res.regression.standard_errors[j];
     res.terms.push_back(t);
   }
+  res.term_effects = fitted;
   res.equation = discovered_equation(fitted);
   res.reading = discovered_reading(fitted);
   if (std::isfinite(noise_floor) && res.error_before > noise_floor) {
     res.gap_closed = (res.error_before - res.error_after) / (res.error_before - noise_floor);
   }
-  res.kept = std::isfinite(res.error_after) &&
-             res.error_after <= (1.0 - 0.5 * opt.significance) * res.error_before;
+  if (std::isfinite(noise_floor) && res.structure_before > noise_floor && std::isfinite(res.structure_after)) {
+    res.structure_gap_closed = (res.structure_before - res.structure_after) / (res.structure_before - noise_floor);
+  }
+  // Kept when it cuts the RMS over all runs by significance/2, or cuts what the verdict judges
+  // by significance without making that RMS worse (a term that removes the harmonics a friction
+  // leaves while the fundamental's gain and phase stay the α-model's).
+  const bool cuts_rms = std::isfinite(res.error_after) &&
+                        res.error_after <= (1.0 - 0.5 * opt.significance) * res.error_before;
+  const bool cuts_structure = std::isfinite(res.error_after) && res.error_after <= res.error_before &&
+                              std::isfinite(res.structure_after) &&
+                              res.structure_after <= (1.0 - opt.significance) * res.structure_before;
+  res.kept = cuts_rms || cuts_structure;
   if (!oe.ok) res.message = "output error failed (" + oe.message + "): the regression's values";
   if (!res.kept) {
     res.message += std::string(res.message.empty() ? "" : "; ") +
-                   "not kept: the RMS over all runs does not drop by significance/2";
+                   "not kept: the RMS over all runs does not drop by significance/2, nor the judged structure "
+                   "by significance";
     res.effects = base.effects;
     res.scales = base.scales;
     res.alpha = base.alpha;
@@ -646,6 +807,8 @@ std::string DiscoveredTermResult::brief_report() const {
   if (terms.empty()) return "discovered: nothing (" + message + ")";
   std::string gap = std::isfinite(gap_closed) ? format("; closes %.0f %% of the gap to the noise floor", 100.0 * gap_closed)
                                               : std::string();
+  if (std::isfinite(structure_gap_closed))
+    gap += format(" (%.0f %% of the judged structure's)", 100.0 * structure_gap_closed);
   return std::string("discovered (") + (kept ? "kept" : "not kept") + "): " + equation +
          format("; RMS %.4g -> %.4g", error_before, error_after) + gap + "; " + reading;
 }
@@ -672,12 +835,17 @@ std::string DiscoveredTermResult::full_report() const {
   for (std::size_t i = 0; i < by_score.size() && i < 6; ++i) {
     std::string names;
     for (std::size_t j : by_score[i].terms)
-      names += (names.empty() ? "" : " ") + std::string(j < kDiscoveredTerms ? kDiscoveredLibrary[j].formula : "?");
+      names += (names.empty() ? "" : " ") + std::string(term_formula(j));
     o << format(" %.5g {%s}", by_score[i].cv_rms, names.c_str()) << (i + 1 < by_score.size() && i < 5 ? ";" : "");
   }
   o << "\n";
   o << format("  RMS of theta - theta_sim over all runs %.4g -> %.4g", error_before, error_after);
   if (std::isfinite(gap_closed)) o << format(" (gap to the floor %.3g closed %.0f %%)", noise_floor, 100.0 * gap_closed);
+  o << "\n";
+  o << format("  the structure the verdict judges (without the sine runs' part at the fundamental) %.4g -> %.4g",
+              structure_before, structure_after);
+  if (std::isfinite(structure_gap_closed)) o << format(" (gap closed %.0f %%)", 100.0 * structure_gap_closed);
+  if (std::isfinite(memory_error_after)) o << format("; the memory terms' contender: RMS %.4g", memory_error_after);
   o << "\n";
   if (kept) o << "  " << discovered_verdict_text(*this) << "\n";
   if (!message.empty()) o << "  note: " << message << "\n";

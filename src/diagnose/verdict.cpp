@@ -163,10 +163,33 @@ NoiseFloor estimate_noise_floor(const std::vector<ResidualSeries>& runs, const V
   return f;
 }
 
+double structure_rms(const std::vector<ResidualSeries>& runs, const VerdictOptions& o) {
+  double ss = 0.0, n = 0.0;
+  for (const ResidualSeries& s : runs) {
+    if (s.t.size() != s.residual.size() || s.t.size() < 20) continue;
+    std::vector<double> e = s.residual;
+    std::size_t first = 0;
+    if (is_sine(s)) {
+      const HarmonicParts h = harmonic_parts(s, *s.freq_hz, o.harmonics);
+      std::vector<std::vector<double>> parts;
+      if (h.ok && fit_harmonics(s, h.first, *s.freq_hz, o.harmonics, parts)) {
+        first = h.first;
+        for (std::size_t i = first; i < s.t.size(); ++i) e[i] -= parts[1][i - first];
+      }
+    }
+    const std::vector<bool> mask = judged_mask(s, o, first);
+    for (std::size_t k = 0; k < e.size(); ++k) {
+      if (mask[k]) ss += e[k] * e[k], n += 1.0;
+    }
+  }
+  return n > 0.0 ? std::sqrt(ss / n) : kNaN;
+}
+
 VerdictReport judge_residual(const std::vector<ResidualSeries>& runs, const NoiseFloor& floor,
                              const VerdictOptions& o) {
   VerdictReport rep;
   rep.floor = floor;
+  rep.structure_rms = structure_rms(runs, o);
   const double fl = floor.rms;
   if (!(std::isfinite(fl) && fl > 0.0)) {
     rep.verdict = ResidualVerdict::kStructureRemains;

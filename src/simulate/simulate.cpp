@@ -493,6 +493,11 @@ SimulationResult simulate_any(const JointModelAtPose& model, const Controller& c
                      known_inputs, res);
     return res;
   }
+  if (discovered_memory_active(model.effects)) {
+    res.message = "the discovered term's memory terms (discovered_lag_sign_v, discovered_dahl_v) "
+                  "need the digital loop (loop_period_s > 0)";
+    return res;
+  }
   ClosedLoop loop(model, controller, open_loop, options, known_inputs, res);
   const State x0{initial.theta, initial.theta_dot, initial.integral};
   if (options.integrator == Integrator::kCvode && model.effects.delay_s > 0.0) {

@@ -152,6 +152,8 @@ VirtualOmni::VirtualOmni(const VirtualOmniParams& params)
   delay_line_.assign(delay_ticks_ + 2, params_.initial_command_v);  // v_k … v_{k−m−1}
   exact_segments_ = params_.exact_constant_segments && !torque_depends_on_state(params_.effects);
   torque_ = TorqueEffects(params_.effects);
+  memory_on_ = discovered_memory_active(params_.effects);
+  memory_lag_decay_ = DiscoveredMemory::lag_decay(params_.effects, params_.tick_period_s);
   reset();
 }
 
@@ -170,6 +172,8 @@ void VirtualOmni::reset() noexcept {
   v_eff_mean_ = v_eff_peak_ = applied_command(params_.effects, params_.initial_command_v);
   time_s_ = 0.0;
   ticks_ = 0;
+  memory_.reset(theta_dot_);
+  memory_theta_prev_ = theta_;
   theta_measured_ = measure(theta_);
 }
 
@@ -313,7 +317,13 @@ void VirtualOmni::prime_commands(const double* commands_v, std::size_t n) noexce
   for (std::size_t k = 0; k < n; ++k) command_path(commands_v[k], KnownInputs{}, u_early, u_late);
 }
 
-double VirtualOmni::step(double command_v, const KnownInputs& known) noexcept {
+double VirtualOmni::step(double command_v, const KnownInputs& known_in) noexcept {
+  KnownInputs known = known_in;
+  if (memory_on_) {  // the memory terms' torque of this tick, from the state at its start
+    memory_.advance(params_.effects, memory_lag_decay_, theta_ - memory_theta_prev_, theta_dot_);
+    memory_theta_prev_ = theta_;
+    known.disturbance_v += memory_.torque(params_.effects);
+  }
   double u_early = 0.0, u_late = 0.0;
   command_path(command_v, known, u_early, u_late);
   const double phi = delay_fraction_;

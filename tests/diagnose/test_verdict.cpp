@@ -80,6 +80,34 @@ TEST(Verdict, AHarmonicOfTheFundamentalIsStructureAndLocated) {
   EXPECT_EQ(judge_residual(gain, estimate_noise_floor(gain)).verdict, ResidualVerdict::kExplained);
 }
 
+TEST(Verdict, TheJudgedStructureLeavesOutTheFundamentalOnly) {
+  // A sine run whose residual is a gain error at the fundamental (amplitude 5e-3, not judged), a
+  // 2nd harmonic of amplitude 1e-3 and a constant 4e-4 (judged): structure_rms is the RMS of
+  // the last two, sqrt((1e-3)²/2 + (4e-4)²), over the steady state; the fundamental alone leaves
+  // nothing. A square run's judged samples count whole.
+  ResidualSeries s = run("sine", 2.0, 0.0, 7);
+  for (std::size_t k = 0; k < s.t.size(); ++k) {
+    const double w = kTwoPi * 2.0 * s.t[k];
+    s.residual[k] = 5e-3 * std::sin(w + 0.3) + 1e-3 * std::cos(2.0 * w) + 4e-4;
+  }
+  EXPECT_NEAR(structure_rms({s}), std::sqrt(0.5e-6 + 1.6e-7), 1e-9);
+  ResidualSeries only_fundamental = s;
+  for (std::size_t k = 0; k < s.t.size(); ++k)
+    only_fundamental.residual[k] = 5e-3 * std::sin(kTwoPi * 2.0 * s.t[k] + 0.3);
+  EXPECT_LT(structure_rms({only_fundamental}), 1e-12);
+  ResidualSeries sq = run("square", 0.0, 0.0, 8);
+  for (double& e : sq.residual) e = 2e-4;
+  EXPECT_NEAR(structure_rms({sq}), 2e-4, 1e-15);
+  // Pooled over the samples of both: between the two.
+  const double both = structure_rms({s, sq});
+  EXPECT_GT(both, 2e-4);
+  EXPECT_LT(both, std::sqrt(0.5e-6 + 1.6e-7));
+  EXPECT_TRUE(std::isnan(structure_rms({})));
+  // judge_residual() reports it.
+  EXPECT_NEAR(judge_residual({s}, estimate_noise_floor({run("sine", 2.0, 1e-4, 9)})).structure_rms,
+              std::sqrt(0.5e-6 + 1.6e-7), 1e-9);
+}
+
 TEST(Verdict, APulseIsLocatedInTime) {
   // A pulse of 2e-3 from t = 3.0 to 3.3 s on a square run (away from the jumps at 0, 2, 4 s
   // and their transients), as an external force pulse leaves it.

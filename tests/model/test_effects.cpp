@@ -99,9 +99,10 @@ TEST(Effects, ModellingChoicesAreListedOnlyWhenAsked) {
   const std::set<EffectKind> with_smoothing = {
       EffectKind::kCoulombFriction, EffectKind::kStribeckFriction, EffectKind::kAsymmetricFriction,
       EffectKind::kPositionDependentFriction, EffectKind::kExternalDisturbance};
-  // The discovered term: its four scales (ε, v_r, θ_c, θ_r).
+  // The discovered term: its four scales (ε, v_r, θ_c, θ_r) and its memory terms' three (T_f,
+  // δ, ε_f).
   for (EffectKind k : kAllEffectKinds) {
-    const std::size_t choices = with_smoothing.count(k) ? 1u : k == EffectKind::kDiscovered ? 4u : 0u;
+    const std::size_t choices = with_smoothing.count(k) ? 1u : k == EffectKind::kDiscovered ? 7u : 0u;
     EXPECT_EQ(effect_parameters(k, true).size(), effect_parameters(k).size() + choices)
         << effect_name(k);
   }
@@ -246,10 +247,10 @@ TEST(EffectTable, EntriesAreInKindOrderWithUniqueNamesAndMembers) {
     EXPECT_TRUE(s.active(e)) << s.name;
     EXPECT_EQ(active_effects(e), std::vector<EffectKind>{s.kind});
   }
-  // 45 members of Effects (22 of the named effects, 2 of the external disturbance, 17 + 4 of the
-  // discovered term), each in exactly one entry.
-  EXPECT_EQ(members.size(), 45u);
-  EXPECT_EQ(sizeof(Effects), 45 * sizeof(double));
+  // 50 members of Effects (22 of the named effects, 2 of the external disturbance, 17 + 4 + 2 + 3
+  // of the discovered term), each in exactly one entry.
+  EXPECT_EQ(members.size(), 50u);
+  EXPECT_EQ(sizeof(Effects), 50 * sizeof(double));
 }
 
 TEST(EffectTable, SearchBoundsGridsAndStepsFollowTheDataScales) {
@@ -518,7 +519,7 @@ TEST(DiscoveredTerm, TorqueIsTheSumOfItsTermsOverTheLibrary) {
   for (std::size_t k = 0; k < kDiscoveredTerms; ++k) EXPECT_NEAR(phi[k], want[k], 1e-15) << k;
   // The coefficient members are the table's first parameters, in library order.
   const EffectSpec& spec = effect_spec(EffectKind::kDiscovered);
-  ASSERT_EQ(spec.parameter_count, kDiscoveredTerms + 4);
+  ASSERT_EQ(spec.parameter_count, kDiscoveredTerms + 9);
   for (std::size_t k = 0; k < kDiscoveredTerms; ++k)
     EXPECT_EQ(spec.parameters[k].member, kDiscoveredLibrary[k].coefficient) << k;
   EXPECT_FALSE(spec.candidate);
@@ -550,6 +551,57 @@ TEST(DiscoveredTerm, EquationAndSpecListOnlyTheNonZeroTerms) {
   bad.discovered_velocity_scale_rad_s = 0.0;
   EXPECT_THROW(validate_effects(bad), Error);
   EXPECT_EQ(effects_text(e).find("discovered_one_v"), std::string::npos);
+}
+
+TEST(DiscoveredMemory, TheLagIsExactForAHeldVelocityAndTheDahlStateForAnyStepping) {
+  Effects e;
+  e.discovered_lag_s = 0.015;
+  e.discovered_dahl_rad = 2e-3;
+  e.discovered_lag_smoothing_rad_s = 0.01;
+  e.discovered_lag_sign_v = -0.006;
+  e.discovered_dahl_v = -0.004;
+  EXPECT_TRUE(discovered_memory_active(e));
+  EXPECT_FALSE(discovered_active(e));  // the library's terms are all 0
+  EXPECT_TRUE(effect_active(e, EffectKind::kDiscovered));
+  EXPECT_EQ(effect_torque(e, 0.1, 0.3), 0.0);  // no memory in the function of the state
+  // A velocity step 0 → 0.2 held: f(t) = 0.2·(1 − exp(−t/T_f)) at every tick, to rounding.
+  DiscoveredMemory m;
+  m.reset(0.0);
+  const double T = 1e-3, lambda = DiscoveredMemory::lag_decay(e, T);
+  EXPECT_DOUBLE_EQ(lambda, std::exp(-T / 0.015));
+  for (int k = 1; k <= 60; ++k) {
+    m.advance(e, lambda, 0.2 * T, 0.2);
+    EXPECT_NEAR(m.lag_velocity_rad_s, 0.2 * (1.0 - std::exp(-k * T / 0.015)), 1e-15) << k;
+  }
+  // The Dahl state after a monotonic displacement D from z0: 1 − (1 − z0)·exp(−D/δ), however the
+  // displacement is cut into ticks; a reversal turns it towards −1.
+  const double z0 = m.dahl_state;
+  EXPECT_NEAR(z0, 1.0 - std::exp(-60 * 0.2 * T / 2e-3), 1e-12);
+  DiscoveredMemory a, b;
+  a.reset(0.0), b.reset(0.0);
+  a.advance(e, lambda, 3e-3, 1.0);
+  for (int k = 0; k < 7; ++k) b.advance(e, lambda, 3e-3 / 7, 1.0);
+  EXPECT_NEAR(a.dahl_state, 1.0 - std::exp(-1.5), 1e-15);
+  EXPECT_NEAR(b.dahl_state, a.dahl_state, 1e-14);
+  a.advance(e, lambda, -1e-3, -1.0);  // back by δ/2: z = −1 + (1 + z)·exp(−1/2)
+  EXPECT_NEAR(a.dahl_state, -1.0 + (2.0 - std::exp(-1.5)) * std::exp(-0.5), 1e-15);
+  a.advance(e, lambda, 0.0, 0.0);  // no displacement: z held
+  EXPECT_NEAR(a.dahl_state, -1.0 + (2.0 - std::exp(-1.5)) * std::exp(-0.5), 1e-15);
+  // The torque: c_f·tanh(f/ε) + c_z·z.
+  EXPECT_NEAR(m.torque(e), -0.006 * std::tanh(m.lag_velocity_rad_s / 0.01) - 0.004 * m.dahl_state,
+              1e-17);
+  // In the equation, the reading's file form and the table (after the four scales).
+  const std::string eq = discovered_equation(e);
+  EXPECT_NE(eq.find("-0.006 tanh(f/eps_f) - 0.004 z"), std::string::npos) << eq;
+  EXPECT_NE(eq.find("lag of 0.015 s"), std::string::npos) << eq;
+  const std::string spec = effect_spec_text(e, EffectKind::kDiscovered);
+  Effects back;
+  apply_effect_spec(spec, back);
+  EXPECT_EQ(back.discovered_lag_sign_v, -0.006) << spec;
+  EXPECT_EQ(back.discovered_dahl_rad, 2e-3) << spec;
+  Effects bad = e;
+  bad.discovered_lag_s = 0.0;
+  EXPECT_THROW(validate_effects(bad), Error);
 }
 
 // torque_depends_on_state() must agree with effect_torque() for every parameter of the catalogue:

@@ -32,6 +32,33 @@ TEST(Simulate, PaperPoseMatchesTable10) {
   EXPECT_NEAR(m.beta_tilde_linear, 229.04, 0.005 * 229.04);
 }
 
+TEST(Simulate, TheDiscoveredMemoryTermsNeedTheDigitalLoop) {
+  // Their state advances once per tick (virtual_omni.hpp): the continuous law refuses them by
+  // name, the digital loop runs them.
+  JointModelAtPose m = paper_pose_model(false);
+  m.effects.discovered_lag_sign_v = -0.005;
+  m.effects.discovered_lag_s = 0.01;
+  const SineReference ref(0.07, 2.0);
+  const auto times = uniform_times(1.0, 1e-3);
+  for (Integrator integ : {Integrator::kFixedPointRk4, Integrator::kCvode}) {
+    SimulationOptions opt;
+    opt.integrator = integ;
+    const SimulationResult res = simulate(m, Controller{}, ref, times, {}, opt);
+    EXPECT_FALSE(res.ok);
+    EXPECT_NE(res.message.find("discovered_lag_sign_v"), std::string::npos) << res.message;
+  }
+  SimulationOptions digital;
+  digital.loop_period_s = 1e-3;
+  const SimulationResult with = simulate(m, Controller{}, ref, times, {}, digital);
+  ASSERT_TRUE(with.ok) << with.message;
+  m.effects.discovered_lag_sign_v = 0.0;
+  const SimulationResult without = simulate(m, Controller{}, ref, times, {}, digital);
+  ASSERT_TRUE(without.ok) << without.message;
+  // A friction that lags the velocity (0.005 V against kp·0.07 = 0.14 V of the P law): the
+  // tracking moves by a visible fraction of a milliradian, not by rounding.
+  EXPECT_GT(max_abs_diff(with.theta, without.theta), 1e-4);
+}
+
 TEST(Simulate, LinearStepMatchesAnalyticSolution) {
   // θ̈ + Cθ̇ + βθ = βA from θ(0) = −A, θ̇(0) = 0, β = β̃ kp (eq. (47)).
   JointModelAtPose m = paper_pose_model(false);

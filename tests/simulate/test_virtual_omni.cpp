@@ -611,6 +611,44 @@ TEST(VirtualOmni, DisturbanceColumnIsRecordedAndActsLikeAnOffset) {
   EXPECT_NEAR(d.theta.back(), 0.02 / ctl.kp, 1e-7);
 }
 
+TEST(VirtualOmni, TheDiscoveredMemoryTermsAreATorqueOfTheTrueStatesHistoryHeldOverEachTick) {
+  // The plant with the memory terms equals the plant without them driven by that torque as a
+  // known disturbance, computed here along its true states (ground truth, bit for bit).
+  VirtualOmniParams p = linear_params();
+  p.effects.discovered_lag_sign_v = -0.01;
+  p.effects.discovered_dahl_v = -0.005;
+  p.effects.discovered_lag_s = 0.02;
+  p.effects.discovered_dahl_rad = 1e-3;
+  p.effects.discovered_lag_smoothing_rad_s = 0.02;
+  VirtualOmni with(p);
+  VirtualOmniParams q = p;
+  q.effects.discovered_lag_sign_v = q.effects.discovered_dahl_v = 0.0;
+  VirtualOmni without(q);
+  const Effects& e = p.effects;
+  const double lambda = std::exp(-kT / 0.02);
+  double f = without.theta_dot(), z = 0.0, theta_prev = without.theta();
+  double largest = 0.0;
+  for (int k = 0; k < 3000; ++k) {
+    const double v = 0.2 * std::sin(kTwoPi * 1.5 * k * kT);
+    const double th = without.theta(), om = without.theta_dot();
+    f = om + (f - om) * lambda;
+    const double d = th - theta_prev;
+    if (d != 0.0) {
+      const double s = d > 0.0 ? 1.0 : -1.0;
+      z = s - (s - z) * std::exp(-std::abs(d) / 1e-3);
+    }
+    theta_prev = th;
+    const double n = e.discovered_lag_sign_v * std::tanh(f / 0.02) + e.discovered_dahl_v * z;
+    largest = std::max(largest, std::abs(n));
+    KnownInputs in;
+    in.disturbance_v = n;
+    without.step(v, in);
+    with.step(v);
+    ASSERT_EQ(with.theta(), without.theta()) << k;
+  }
+  EXPECT_GT(largest, 0.012);  // the terms acted
+}
+
 // --- (e) real-time: no allocation
 // -------------------------------------------------------------------
 
@@ -622,6 +660,8 @@ TEST(VirtualOmni, StepResetAndSetPoseAllocateNothing) {
   p.effects.offset_v = 0.001;
   p.effects.saturation_v = 0.2;
   p.effects.deadzone_v = 0.001;
+  p.effects.discovered_lag_sign_v = -0.002;  // and the discovered term's memory terms
+  p.effects.discovered_dahl_v = -0.001;
   VirtualOmni omni(p);
   double sink = 0.0;
   const long before = test::allocation_count();

@@ -41,6 +41,11 @@
 ///   with α̂ the streaming α of the command history (eq. (33)) and I(γ1, γ2) at the measured pose
 ///   (eq. (6)); the reference's derivatives are taken at the tick's middle plus τ.
 ///
+/// The discovered term's memory terms (effects.hpp DiscoveredMemory: a lagged velocity's sign, a
+/// Dahl state) are advanced once per tick by observe() from the observer's displacement and θ̇_f,
+/// and their torque joins n̂ as it is (not faded: the lag's sign passes through zero on its own,
+/// and a Dahl state at rest is the torque the joint holds).
+///
 /// θ̇_f comes from a second-order tracking observer (an α-β filter with both poles at
 /// exp(−2π·velocity_bandwidth_hz·T)): zero steady-state error on a ramp in θ, and an encoder step q
 /// moves θ̇_f by only (1 − p)²·q/T.
@@ -150,6 +155,9 @@ class Compensator {
 
   /// Filtered velocity θ̇_f [rad/s]. Real-time safe.
   double velocity_rad_s() const noexcept { return velocity_; }
+  /// The observer's angle θ̂ [rad] (what the memory terms' displacement is taken from). Real-time
+  /// safe.
+  double angle_rad() const noexcept { return theta_hat_; }
   /// Time by which position-dependent effects and the reference are led [s]: T/2 + τ.
   double lead_s() const noexcept { return lead_s_; }
   const CompensatorConfig& config() const noexcept { return config_; }
@@ -200,6 +208,12 @@ class Compensator {
   double theta_meas_ = 0.0;  ///< newest measured θ [rad]
   double theta_hat_ = 0.0;   ///< observer's θ [rad]
   double velocity_ = 0.0;    ///< observer's θ̇ [rad/s]
+  /// The discovered term's memory terms (effects.hpp DiscoveredMemory), advanced by observe()
+  /// with the observer's displacement and velocity; their torque (0 when off) joins n̂.
+  bool memory_on_ = false;
+  double memory_lag_decay_ = 0.0;
+  DiscoveredMemory memory_;
+  double memory_torque_ = 0.0;
 };
 
 // The tick's part, inline: the tick (control_loop.cpp) calls it every period, and a call per
@@ -211,17 +225,24 @@ inline void Compensator::observe(double theta_rad, bool new_report) noexcept {
     have_state_ = true;
     theta_hat_ = theta_meas_ = theta_rad;
     velocity_ = 0.0;
+    memory_.reset(0.0);
+    memory_torque_ = 0.0;
     return;
   }
+  const double theta_before = theta_hat_;
   const double predicted = theta_hat_ + period_s_ * velocity_;
   if (!new_report) {
     theta_hat_ = predicted;
-    return;
+  } else {
+    theta_meas_ = theta_rad;
+    const double residual = theta_rad - predicted;
+    theta_hat_ = predicted + gain_position_ * residual;
+    velocity_ += gain_velocity_ * residual;
   }
-  theta_meas_ = theta_rad;
-  const double residual = theta_rad - predicted;
-  theta_hat_ = predicted + gain_position_ * residual;
-  velocity_ += gain_velocity_ * residual;
+  if (memory_on_) {
+    memory_.advance(effects_, memory_lag_decay_, theta_hat_ - theta_before, velocity_);
+    memory_torque_ = memory_.torque(effects_);
+  }
 }
 
 inline double Compensator::effect_torque_estimate(double w, double breakaway) const noexcept {
@@ -234,7 +255,7 @@ inline double Compensator::effect_torque_estimate(double w, double breakaway) co
   sum.moving_terms = moving_terms_;
   if (moving_terms_ == 0u) {  // nothing depends on θ̇
     torque_effects_.sum_terms(theta_lead, 0.0, sum);
-    return sum.still;
+    return sum.still + memory_torque_;
   }
   const double f = smooth_sign(std::abs(w) * inv_friction_smoothing_);
   const double rest = 1.0 - f;
@@ -249,7 +270,7 @@ inline double Compensator::effect_torque_estimate(double w, double breakaway) co
     torque_effects_.sum_terms(theta_lead, 0.0, rest_sum);
     at_rest = rest_sum.moving;
   }
-  return sum.still + at_rest + (sum.moving - at_rest) * g;
+  return sum.still + at_rest + (sum.moving - at_rest) * g + memory_torque_;
 }
 
 inline double Compensator::breakaway_direction(double error_rad, double p_command_v) const noexcept {

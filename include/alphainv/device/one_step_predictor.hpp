@@ -47,6 +47,12 @@ class OneStepPredictor {
   // The previous tick's model quantities (see ControlLoop::tick() before the split).
   bool have_prev_tick_ = false, have_pred_ = false;
   double theta_prev_ = 0.0;      ///< the previous record's θ [rad]
+  /// The discovered term's memory terms (effects.hpp DiscoveredMemory), advanced with each
+  /// prediction's θ and θ̇ (their torque joins u).
+  bool memory_on_ = false;
+  bool memory_started_ = false;
+  double memory_lag_decay_ = 0.0;
+  DiscoveredMemory memory_;
   double c_prev_ = 0.0;          ///< its C [1/s]
   double gain_prev_ = 0.0;       ///< its β̃/C
   double u_prev_ = 0.0;          ///< its model input u (the command through the effects + n)

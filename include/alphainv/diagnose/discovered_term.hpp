@@ -23,10 +23,18 @@
 ///    change in n̂ (the output-error fit frees those factors too).
 ///    With a re-identification (DiscoveredBase::reidentify) the α-model is identified again with
 ///    the term in the plant input and the regression repeated on what that model leaves (twice).
+///    Memory terms (digital loop only; effects.hpp DiscoveredMemory): the library with the two
+///    columns tanh(f/ε_f) and z, computed along each run's samples in time order, is regressed
+///    at each of a grid of scales (T_f 2-50 ms, δ 0.1-10 % of θ_r); the scales whose chosen
+///    support has a memory term with the lowest cross-validated RMS are a contender when that
+///    RMS is below the library's own choice. Both contenders go through output error (T_f, δ
+///    and ε_f refined there too, within a factor 3, 3 and 10), the better over all runs wins.
 /// 3. Output error (output_error.hpp): the chosen terms' coefficients refined together with the
 ///    model's coefficient factors (C_n, β̃ ends) on the fit runs, from the regression's values.
 /// 4. Kept when the RMS of θ − θ_sim over all runs is at most (1 − significance/2) times the
-///    model's without it (as a named effect's). Reported as an equation with coefficients and
+///    model's without it (as a named effect's), or when what the verdict judges (verdict.hpp
+///    structure_rms(): the sine runs without their part at the fundamental) is at most
+///    (1 − significance) times and that RMS is not larger. Reported as an equation with coefficients and
 ///    standard errors (output error's, from (JᵀJ)⁻¹σ²; the regression's beside them), its reading
 ///    where a named form matches ("this is coulomb_friction Fc = 0.004"), and the gap it closes
 ///    (against the noise floor, verdict.hpp).
@@ -40,6 +48,7 @@
 #include <vector>
 
 #include "alphainv/diagnose/diagnose.hpp"
+#include "alphainv/diagnose/verdict.hpp"
 #include "alphainv/model/effects.hpp"
 
 namespace alphainv {
@@ -98,7 +107,9 @@ std::string discovered_reading(const Effects& e);
 
 /// One term of the discovered equation.
 struct DiscoveredTermEntry {
-  std::size_t index = 0;  ///< into kDiscoveredLibrary
+  /// into kDiscoveredLibrary, or kDiscoveredTerms (the lag's sign) and kDiscoveredTerms + 1 (the
+  /// Dahl state z), the memory terms
+  std::size_t index = 0;
   std::string name;       ///< its coefficient's model.json name, e.g. "discovered_sign_v"
   std::string formula;    ///< e.g. "sigma"
   double coefficient = 0.0;  ///< after output error [command unit]
@@ -114,6 +125,9 @@ struct DiscoveredTermOptions {
   unsigned threads = 0;        ///< simulations in parallel; 0: all cores
   SimulationOptions simulation;
   std::size_t max_residuals_per_run = 800;  ///< output-error residual samples per run
+  /// Try the memory terms (effects.hpp DiscoveredMemory) over their grid of scales; only with
+  /// the digital loop (simulation.loop_period_s > 0), which advances their state once per tick.
+  bool memory = true;
   int max_iterations = 10;                  ///< output-error iterations
 
   /// Throws alphainv::Error naming the field ("regression.folds", "significance", …).
@@ -133,15 +147,28 @@ struct DiscoveredTermResult {
   Effects effects;
   ModelScales scales;
   std::optional<AlphaModel> alpha;
+  /// The term as fitted, kept or not (its coefficients and scales; `effects` holds it only when
+  /// kept).
+  Effects term_effects;
   std::string equation;  ///< discovered_equation()
   std::string reading;   ///< discovered_reading()
   /// RMS of θ − θ_sim over all runs [position unit] without and with the term.
   double error_before = std::numeric_limits<double>::quiet_NaN();
   double error_after = std::numeric_limits<double>::quiet_NaN();
+  /// The memory terms' contender's RMS over all runs (NaN: none was a contender: the equation
+  /// error preferred no memory term at any scale of the grid, or not the digital loop).
+  double memory_error_after = std::numeric_limits<double>::quiet_NaN();
   /// The noise floor given, and the part of the gap to it the term closes,
   /// (error_before − error_after)/(error_before − floor) (NaN without a floor below before).
   double noise_floor = std::numeric_limits<double>::quiet_NaN();
   double gap_closed = std::numeric_limits<double>::quiet_NaN();
+  /// The same on what the verdict judges (verdict.hpp structure_rms(): the sine runs without
+  /// their part at the fundamental, which the α-model represents): before, after, and the part of
+  /// the gap to the floor closed. The whole RMS's floor is not the noise floor: on effect-free
+  /// data the α-model alone leaves a whole RMS many times it (verdict.hpp).
+  double structure_before = std::numeric_limits<double>::quiet_NaN();
+  double structure_after = std::numeric_limits<double>::quiet_NaN();
+  double structure_gap_closed = std::numeric_limits<double>::quiet_NaN();
   /// Set by diagnose(): with the term kept, the final verdict is "explained to the noise floor".
   bool carries_remainder = false;
   double seconds = 0.0;

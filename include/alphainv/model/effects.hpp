@@ -100,6 +100,13 @@ struct Effects {
   double discovered_velocity_scale_rad_s = 1.0; ///< v_r [position unit/s], > 0
   double discovered_position_center_rad = 0.0;  ///< θ_c [position unit]
   double discovered_position_scale_rad = 1.0;   ///< θ_r [position unit], > 0
+  /// The discovered term's memory terms (DiscoveredMemory: a state advanced once per tick, so a
+  /// model with them needs the digital loop; 0: off):
+  double discovered_lag_sign_v = 0.0;  ///< c of tanh(f/ε), f = θ̇ through a first-order lag T_f
+  double discovered_dahl_v = 0.0;      ///< c of z, a Dahl state: dz = (sign dθ − z)·|dθ|/δ
+  double discovered_lag_s = 0.01;      ///< the lag's time constant T_f [s], > 0
+  double discovered_lag_smoothing_rad_s = 1e-3;  ///< its tanh smoothing ε_f [position unit/s], > 0
+  double discovered_dahl_rad = 1e-3;   ///< the Dahl state's displacement δ [position unit], > 0
 
   /// Longest delay accepted [s] (delay lines are sized from it).
   static constexpr double kMaxDelayS = 1.0;
@@ -164,13 +171,62 @@ inline void discovered_basis(const Effects& e, double theta, double theta_dot,
   }
 }
 
-/// Whether any coefficient of the discovered term is non-zero.
+/// Whether any coefficient of the discovered term's library (its terms without memory) is
+/// non-zero.
 inline bool discovered_active(const Effects& e) noexcept {
   for (const DiscoveredFunction& f : kDiscoveredLibrary) {
     if (e.*f.coefficient != 0.0) return true;
   }
   return false;
 }
+
+/// Whether the discovered term has a memory term (discovered_lag_sign_v or discovered_dahl_v
+/// non-zero): a torque of the state's history, DiscoveredMemory. Real-time safe.
+inline bool discovered_memory_active(const Effects& e) noexcept {
+  return e.discovered_lag_sign_v != 0.0 || e.discovered_dahl_v != 0.0;
+}
+
+/// The state of the discovered term's memory terms and its advance once per tick (the
+/// simulator's digital loop, the virtual plant, the 1 kHz compensation):
+///     f ← θ̇ + (f − θ̇)·λ,  λ = exp(−T/T_f)                  (a first-order lag of θ̇, exact
+///                                                             for θ̇ held over the tick)
+///     z ← s − (s − z)·exp(−|Δθ|/δ),  s = sign Δθ             (Dahl: dz = (s − z)·|dθ|/δ, exact
+///                                                             over the tick's displacement Δθ)
+///     n_mem = c_f·tanh(f/ε_f) + c_z·z
+/// with ε_f the lag's own smoothing. Both are a friction with memory: the lag's sign reverses T_f
+/// after the velocity does (a frictional lag), z turns over a displacement δ after a reversal
+/// (pre-sliding, a bristle state). Started with f = θ̇ and z = 0. Real-time safe.
+struct DiscoveredMemory {
+  double lag_velocity_rad_s = 0.0;  ///< f
+  double dahl_state = 0.0;          ///< z, in [−1, 1]
+
+  /// λ = exp(−period_s/T_f) for a tick of `period_s` [s].
+  static double lag_decay(const Effects& e, double period_s) noexcept {
+    return std::exp(-period_s / e.discovered_lag_s);
+  }
+  /// Starts the state at velocity `theta_dot` (f = θ̇, z = 0).
+  void reset(double theta_dot) noexcept {
+    lag_velocity_rad_s = theta_dot;
+    dahl_state = 0.0;
+  }
+  /// Advances the state over one tick to velocity `theta_dot` with the displacement
+  /// `delta_theta` over it and the lag's decay `lag_decay` (lag_decay()).
+  void advance(const Effects& e, double lag_decay, double delta_theta, double theta_dot) noexcept {
+    lag_velocity_rad_s = theta_dot + (lag_velocity_rad_s - theta_dot) * lag_decay;
+    if (e.discovered_dahl_v != 0.0 && delta_theta != 0.0) {
+      const double s = delta_theta > 0.0 ? 1.0 : -1.0;
+      dahl_state = s - (s - dahl_state) * std::exp(-std::abs(delta_theta) / e.discovered_dahl_rad);
+    }
+  }
+  /// n_mem [command unit] at the present state.
+  double torque(const Effects& e) const noexcept {
+    double n = 0.0;
+    if (e.discovered_lag_sign_v != 0.0)
+      n += e.discovered_lag_sign_v * std::tanh(lag_velocity_rad_s / e.discovered_lag_smoothing_rad_s);
+    if (e.discovered_dahl_v != 0.0) n += e.discovered_dahl_v * dahl_state;
+    return n;
+  }
+};
 
 /// Σ_k c_k·φ_k(θ, θ̇) [command unit]: the discovered term. Real-time safe.
 inline double discovered_torque(const Effects& e, double theta, double theta_dot) noexcept {
@@ -194,11 +250,25 @@ inline std::string discovered_equation(const Effects& e) {
     eq += std::string(eq.empty() ? (c < 0 ? "-" : "") : (c < 0 ? " - " : " + ")) + buf +
           (std::string(f.formula) == "1" ? "" : std::string(" ") + f.formula);
   }
+  auto memory = [&eq](double c, const char* formula) {
+    if (c == 0.0) return;
+    char buf[48];
+    std::snprintf(buf, sizeof buf, "%.4g", std::abs(c));
+    eq += std::string(eq.empty() ? (c < 0 ? "-" : "") : (c < 0 ? " - " : " + ")) + buf + " " + formula;
+  };
+  memory(e.discovered_lag_sign_v, "tanh(f/eps_f)");
+  memory(e.discovered_dahl_v, "z");
   if (eq.empty()) return "n = 0";
-  return "n = " + eq + "; sigma = tanh(theta'/" + detail::num(e.discovered_smoothing_rad_s) +
-         "), w = theta'/" + detail::num(e.discovered_velocity_scale_rad_s) + ", x = (theta - " +
-         detail::num(e.discovered_position_center_rad) + ")/" +
-         detail::num(e.discovered_position_scale_rad);
+  std::string out = "n = " + eq + "; sigma = tanh(theta'/" + detail::num(e.discovered_smoothing_rad_s) +
+                    "), w = theta'/" + detail::num(e.discovered_velocity_scale_rad_s) +
+                    ", x = (theta - " + detail::num(e.discovered_position_center_rad) + ")/" +
+                    detail::num(e.discovered_position_scale_rad);
+  if (e.discovered_lag_sign_v != 0.0)
+    out += ", f = theta' through a lag of " + detail::num(e.discovered_lag_s) + " s, eps_f = " +
+           detail::num(e.discovered_lag_smoothing_rad_s);
+  if (e.discovered_dahl_v != 0.0)
+    out += ", z a Dahl state (dz = (sign dtheta - z)|dtheta|/" + detail::num(e.discovered_dahl_rad) + ")";
+  return out;
 }
 
 namespace detail {
@@ -451,8 +521,8 @@ struct EffectParameter {
 };
 
 /// The most parameters one effect has (modelling choices included): the discovered term's
-/// library and its four scales.
-inline constexpr std::size_t kMaxEffectParameters = kDiscoveredTerms + 4;
+/// library, its four scales, its two memory terms and their three scales.
+inline constexpr std::size_t kMaxEffectParameters = kDiscoveredTerms + 9;
 
 /// Everything the code knows about one effect of the catalogue.
 struct EffectSpec {
@@ -957,8 +1027,19 @@ inline const std::array<EffectSpec, kEffectKindCount> kEffectCatalogue = {{
        {"discovered_position_center_rad", &Effects::discovered_position_center_rad, "position unit", "position centre theta_c", ParameterCheck::kFinite, true,
         detail::no_bounds, detail::half_start},
        {"discovered_position_scale_rad", &Effects::discovered_position_scale_rad, "position unit", "position scale theta_r", ParameterCheck::kPositiveIfActive, true,
+        detail::no_bounds, detail::half_start},
+       {"discovered_lag_sign_v", &Effects::discovered_lag_sign_v, "command unit", "c of tanh(f/eps), f = theta' through a first-order lag (memory)", ParameterCheck::kFinite, false,
+        detail::coefficient_bounds, detail::half_start_or_2pc_vmax},
+       {"discovered_dahl_v", &Effects::discovered_dahl_v, "command unit", "c of z, a Dahl state (memory)", ParameterCheck::kFinite, false,
+        detail::coefficient_bounds, detail::half_start_or_2pc_vmax},
+       {"discovered_lag_s", &Effects::discovered_lag_s, "s", "the lag's time constant T_f", ParameterCheck::kPositiveIfActive, true,
+        detail::no_bounds, detail::half_start},
+       {"discovered_dahl_rad", &Effects::discovered_dahl_rad, "position unit", "the Dahl state's displacement delta", ParameterCheck::kPositiveIfActive, true,
+        detail::no_bounds, detail::half_start},
+       {"discovered_lag_smoothing_rad_s", &Effects::discovered_lag_smoothing_rad_s, "position unit/s", "the lag's tanh smoothing eps_f", ParameterCheck::kPositiveIfActive, true,
         detail::no_bounds, detail::half_start}}},
-     kDiscoveredTerms + 4, [](const Effects& e) { return discovered_active(e); },
+     kDiscoveredTerms + 9,
+     [](const Effects& e) { return discovered_active(e) || discovered_memory_active(e); },
      detail::discovered_least_squares_start, detail::start_only_grid, nullptr, nullptr, 0.0,
      nullptr, {0.01, 0.005}, false, EffectKind::kNone, EffectKind::kNone, /*candidate=*/false},
 }};

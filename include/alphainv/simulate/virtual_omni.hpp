@@ -199,6 +199,12 @@ class VirtualOmni {
   double v_eff_mean_ = 0.0, v_eff_peak_ = 0.0;
   double time_s_ = 0.0;
   long ticks_ = 0;
+  /// The discovered term's memory terms (effects.hpp DiscoveredMemory): advanced at the start of
+  /// each tick from the true state, their torque held over the tick like d_ext.
+  bool memory_on_ = false;
+  double memory_lag_decay_ = 0.0;
+  double memory_theta_prev_ = 0.0;
+  DiscoveredMemory memory_;
 };
 
 /// Options of run_closed_loop.
