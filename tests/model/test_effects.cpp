@@ -522,6 +522,9 @@ TEST(DiscoveredTerm, TorqueIsTheSumOfItsTermsOverTheLibrary) {
   ASSERT_EQ(spec.parameter_count, kDiscoveredTerms + 9);
   for (std::size_t k = 0; k < kDiscoveredTerms; ++k)
     EXPECT_EQ(spec.parameters[k].member, kDiscoveredLibrary[k].coefficient) << k;
+  // … then its four scales, then the two memory coefficients (diagnose names them by this order).
+  EXPECT_EQ(spec.parameters[kDiscoveredTerms + 4].member, &Effects::discovered_lag_sign_v);
+  EXPECT_EQ(spec.parameters[kDiscoveredTerms + 5].member, &Effects::discovered_dahl_v);
   EXPECT_FALSE(spec.candidate);
   for (const EffectSpec& s : kEffectCatalogue) {
     if (s.kind != EffectKind::kDiscovered) {
