@@ -14,6 +14,9 @@
 ///      `disturbance_v` column, plant_input.hpp; the table entry carries its size)
 ///       + Σ_k c_k·φ_k(θ, θ̇)                               discovered (a fixed library φ,
 ///                                                           kDiscoveredLibrary; sparse c)
+///     (+ c_f·tanh(f/ε_f) + c_z·z: the discovered term's memory terms, a lagged velocity f and a
+///      Dahl state z with a state of their own, advanced once per tick where the tick is:
+///      DiscoveredMemory, not effect_torque())
 /// with σ(θ̇) = tanh(θ̇/ε) (each friction effect has its own smoothing ε, a modelling choice),
 /// h⁺ = (1 + σ)/2, h⁻ = (1 − σ)/2 (the direction weights), and,
 /// with τ the command delay (time_delay), Z the deadzone Z(v) = sign(v)·max(|v| − d, 0) (deadzone)

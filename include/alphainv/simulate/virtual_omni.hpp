@@ -15,7 +15,9 @@
 ///       + a·sin(2π·θ/p + φ)               cogging, periodic in θ,
 /// v_eff = S(Z(v(t − τ))): the command delayed by τ, through the amplifier's deadzone Z
 /// (Z(v) = sign(v)·max(|v| − d, 0)) and then its saturation S (clamp to ±v_max); e(t) ∈ {0, 1}
-/// the motor enable and d_ext a known external disturbance (step(command, KnownInputs)).
+/// the motor enable and d_ext a known external disturbance (step(command, KnownInputs)). The
+/// discovered term's memory terms (effects.hpp DiscoveredMemory) are advanced at the start of each
+/// tick from the true state and their torque is held over the tick, added to d_ext.
 /// The command v is held constant over each tick (zero-order hold, like a DAC).
 ///
 /// α inside the plant. Friction depends on the energy of the command the joint receives, so once
