@@ -107,6 +107,12 @@ std::vector<bool> judged_mask(const ResidualSeries& s, const VerdictOptions& o, 
   return m;
 }
 
+/// harmonic_parts() that also gives the fitted parts (fit_harmonics'): one fit for both.
+HarmonicParts harmonic_parts_and_fit(const ResidualSeries& s, double f, int n,
+                                     std::vector<std::vector<double>>& parts);
+void add_structure(const ResidualSeries& s, const std::vector<bool>& mask, std::size_t first,
+                   const std::vector<double>& fundamental, double& ss, double& n);
+
 }  // namespace
 
 const char* verdict_name(ResidualVerdict v) {
@@ -114,6 +120,14 @@ const char* verdict_name(ResidualVerdict v) {
 }
 
 HarmonicParts harmonic_parts(const ResidualSeries& s, double f, int n) {
+  std::vector<std::vector<double>> parts;
+  return harmonic_parts_and_fit(s, f, n, parts);
+}
+
+namespace {
+
+HarmonicParts harmonic_parts_and_fit(const ResidualSeries& s, double f, int n,
+                                     std::vector<std::vector<double>>& parts) {
   HarmonicParts h;
   if (s.t.size() != s.residual.size() || s.t.size() < 20 || !(f > 0.0)) return h;
   const double duration = s.t.back() - s.t.front();
@@ -121,7 +135,6 @@ HarmonicParts harmonic_parts(const ResidualSeries& s, double f, int n) {
   if (cycles < 2.0) return h;
   const double t0 = s.t.back() - cycles / f;
   while (h.first < s.t.size() && s.t[h.first] < t0) ++h.first;
-  std::vector<std::vector<double>> parts;
   if (!fit_harmonics(s, h.first, f, n, parts)) return h;
   const std::size_t m = s.t.size() - h.first;
   std::vector<double> rest(m), rep(m), harm(m, 0.0);
@@ -146,6 +159,19 @@ HarmonicParts harmonic_parts(const ResidualSeries& s, double f, int n) {
   return h;
 }
 
+/// Adds the judged samples (`mask`) of `s` to (ss, n), without its part at the fundamental
+/// `fundamental` (fitted from sample `first`; empty: none): structure_rms()'s sum.
+void add_structure(const ResidualSeries& s, const std::vector<bool>& mask, std::size_t first,
+                   const std::vector<double>& fundamental, double& ss, double& n) {
+  for (std::size_t k = 0; k < s.residual.size(); ++k) {
+    if (!mask[k]) continue;
+    const double e = s.residual[k] - (k >= first && k - first < fundamental.size() ? fundamental[k - first] : 0.0);
+    ss += e * e, n += 1.0;
+  }
+}
+
+}  // namespace
+
 NoiseFloor estimate_noise_floor(const std::vector<ResidualSeries>& runs, const VerdictOptions& o) {
   NoiseFloor f;
   std::vector<double> white, cyc;
@@ -167,20 +193,11 @@ double structure_rms(const std::vector<ResidualSeries>& runs, const VerdictOptio
   double ss = 0.0, n = 0.0;
   for (const ResidualSeries& s : runs) {
     if (s.t.size() != s.residual.size() || s.t.size() < 20) continue;
-    std::vector<double> e = s.residual;
-    std::size_t first = 0;
-    if (is_sine(s)) {
-      const HarmonicParts h = harmonic_parts(s, *s.freq_hz, o.harmonics);
-      std::vector<std::vector<double>> parts;
-      if (h.ok && fit_harmonics(s, h.first, *s.freq_hz, o.harmonics, parts)) {
-        first = h.first;
-        for (std::size_t i = first; i < s.t.size(); ++i) e[i] -= parts[1][i - first];
-      }
-    }
-    const std::vector<bool> mask = judged_mask(s, o, first);
-    for (std::size_t k = 0; k < e.size(); ++k) {
-      if (mask[k]) ss += e[k] * e[k], n += 1.0;
-    }
+    std::vector<std::vector<double>> parts;
+    const HarmonicParts h = is_sine(s) ? harmonic_parts_and_fit(s, *s.freq_hz, o.harmonics, parts)
+                                       : HarmonicParts{};
+    const std::size_t first = h.ok ? h.first : 0;
+    add_structure(s, judged_mask(s, o, first), first, h.ok ? parts[1] : std::vector<double>{}, ss, n);
   }
   return n > 0.0 ? std::sqrt(ss / n) : kNaN;
 }
@@ -189,9 +206,9 @@ VerdictReport judge_residual(const std::vector<ResidualSeries>& runs, const Nois
                              const VerdictOptions& o) {
   VerdictReport rep;
   rep.floor = floor;
-  rep.structure_rms = structure_rms(runs, o);
   const double fl = floor.rms;
   if (!(std::isfinite(fl) && fl > 0.0)) {
+    rep.structure_rms = structure_rms(runs, o);
     rep.verdict = ResidualVerdict::kStructureRemains;
     rep.unexplained.push_back({"no noise floor could be estimated from the data", 0.0, 0.0});
     return rep;
@@ -199,19 +216,18 @@ VerdictReport judge_residual(const std::vector<ResidualSeries>& runs, const Nois
   auto add = [&](const std::string& where, double size) {
     if (std::isfinite(size) && size > o.ratio * fl) rep.unexplained.push_back({where, size, size / fl});
   };
-  double ss_j = 0.0, n_j = 0.0, ss_t = 0.0, n_t = 0.0;
+  double ss_j = 0.0, n_j = 0.0, ss_t = 0.0, n_t = 0.0, ss_s = 0.0, n_s = 0.0;
   for (const ResidualSeries& s : runs) {
     if (s.t.size() != s.residual.size() || s.t.size() < 20) continue;
     std::size_t first = 0;
     std::vector<double> windowed = s.residual;  // what the time windows look at
     const bool sine = is_sine(s);
     HarmonicParts h;
+    std::vector<std::vector<double>> parts;
     if (sine) {
-      h = harmonic_parts(s, *s.freq_hz, o.harmonics);
+      h = harmonic_parts_and_fit(s, *s.freq_hz, o.harmonics, parts);
       if (h.ok) {
         first = h.first;
-        std::vector<std::vector<double>> parts;
-        fit_harmonics(s, first, *s.freq_hz, o.harmonics, parts);
         for (std::size_t i = first; i < s.t.size(); ++i) {
           for (const auto& p : parts) windowed[i] -= p[i - first];
         }
@@ -231,6 +247,7 @@ VerdictReport judge_residual(const std::vector<ResidualSeries>& runs, const Nois
       }
     }
     const std::vector<bool> mask = judged_mask(s, o, first);
+    add_structure(s, mask, first, h.ok ? parts[1] : std::vector<double>{}, ss_s, n_s);
     std::vector<double> judged;
     for (std::size_t k = 0; k < s.t.size(); ++k) {
       const double e2 = s.residual[k] * s.residual[k];
@@ -284,6 +301,7 @@ VerdictReport judge_residual(const std::vector<ResidualSeries>& runs, const Nois
         floor.cycle_to_cycle);
   }
   rep.judged_rms = n_j > 0 ? std::sqrt(ss_j / n_j) : kNaN;
+  rep.structure_rms = n_s > 0 ? std::sqrt(ss_s / n_s) : kNaN;
   rep.transient_rms = n_t > 0 ? std::sqrt(ss_t / n_t) : kNaN;
   std::stable_sort(rep.unexplained.begin(), rep.unexplained.end(),
                    [](const UnexplainedPart& a, const UnexplainedPart& b) { return a.ratio > b.ratio; });

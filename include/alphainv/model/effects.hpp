@@ -245,22 +245,16 @@ inline double discovered_torque(const Effects& e, double theta, double theta_dot
 /// w = theta'/0.21, x = (theta - 0)/0.07"; "n = 0" when off.
 inline std::string discovered_equation(const Effects& e) {
   std::string eq;
-  for (const DiscoveredFunction& f : kDiscoveredLibrary) {
-    const double c = e.*f.coefficient;
-    if (c == 0.0) continue;
-    char buf[48];
-    std::snprintf(buf, sizeof buf, "%.4g", std::abs(c));
-    eq += std::string(eq.empty() ? (c < 0 ? "-" : "") : (c < 0 ? " - " : " + ")) + buf +
-          (std::string(f.formula) == "1" ? "" : std::string(" ") + f.formula);
-  }
-  auto memory = [&eq](double c, const char* formula) {
+  auto add = [&eq](double c, const char* formula) {  // " + 0.002 x", "-0.0041 sigma", "0.003"
     if (c == 0.0) return;
     char buf[48];
     std::snprintf(buf, sizeof buf, "%.4g", std::abs(c));
-    eq += std::string(eq.empty() ? (c < 0 ? "-" : "") : (c < 0 ? " - " : " + ")) + buf + " " + formula;
+    eq += std::string(eq.empty() ? (c < 0 ? "-" : "") : (c < 0 ? " - " : " + ")) + buf +
+          (std::string(formula) == "1" ? "" : std::string(" ") + formula);
   };
-  memory(e.discovered_lag_sign_v, "tanh(f/eps_f)");
-  memory(e.discovered_dahl_v, "z");
+  for (const DiscoveredFunction& f : kDiscoveredLibrary) add(e.*f.coefficient, f.formula);
+  add(e.discovered_lag_sign_v, "tanh(f/eps_f)");  // the memory terms
+  add(e.discovered_dahl_v, "z");
   if (eq.empty()) return "n = 0";
   std::string out = "n = " + eq + "; sigma = tanh(theta'/" + detail::num(e.discovered_smoothing_rad_s) +
                     "), w = theta'/" + detail::num(e.discovered_velocity_scale_rad_s) +
