@@ -108,6 +108,10 @@ nlohmann::json result_json(const DiagnoseResult& res) {
   // The verdict on the final model against the noise floor estimated from the data.
   j["verdict"] = verdict_name(res.verdict.verdict);
   j["noise_floor"] = num(res.noise_floor.rms);
+  // What the verdict judged: the structure (verdict.hpp structure_rms()) and the sine runs'
+  // median error at the fundamental (null with fewer than three sine runs).
+  j["structure_rms"] = num(res.verdict.structure_rms);
+  j["fundamental_median"] = num(res.verdict.fundamental_median);
   nlohmann::json unexplained = nlohmann::json::array();
   for (const UnexplainedPart& u : res.verdict.unexplained)
     unexplained.push_back({{"where", u.where}, {"size", num(u.size)}, {"ratio", num(u.ratio)}});

@@ -240,13 +240,19 @@ int run_sweep(const SweepCommandOptions& o) {
         gen_cmd << " --effect " << effect_spec_text(hidden, k);
       }
     }
+    nlohmann::json unexplained = nlohmann::json::array();
+    for (const UnexplainedPart& u : r.verdict.unexplained) unexplained.push_back({{"where", u.where}, {"ratio", u.ratio}});
     jcases.push_back({{"effect", effect_name(c.effect)}, {"magnitude", magnitude},
                       {"hidden", effects_text(hidden)}, {"generate", gen_cmd.str()},
                       {"noise_std_rad", c.noise_std_rad}, {"seed", c.seed},
                       {"named", effect_name(named)}, {"error_before", r.error_before},
                       {"error_after", r.error_after}, {"seconds", r.seconds},
                       {"verdict", verdict_name(r.verdict.verdict)},
-                      {"noise_floor", r.noise_floor.rms}});
+                      {"noise_floor", r.noise_floor.rms},
+                      {"structure_rms", r.verdict.structure_rms},
+                      {"fundamental_median", r.verdict.fundamental_median},
+                      {"fundamental_runs_above", r.verdict.fundamental_runs_above},
+                      {"unexplained", unexplained}});
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   // The matrix.

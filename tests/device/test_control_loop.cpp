@@ -286,12 +286,21 @@ TEST(ControlLoop, AngleLimitAndDeadlineMisses) {
 }
 
 TEST(ControlLoop, TickAllocatesNothing) {
-  // Without compensation, and with --compensate all on a model with effects (compensator.hpp).
+  // Without compensation, and with --compensate all on a model with effects (compensator.hpp),
+  // the discovered term's library and memory terms among them (their state advanced each tick).
   ControlLoopConfig compensated;
   compensated.effects.coulomb_v = 0.02;
   compensated.effects.offset_v = 0.01;
   compensated.effects.cogging_v = 0.01;
   compensated.effects.deadzone_v = 0.01;
+  compensated.effects.discovered_sign_v = -0.005;
+  compensated.effects.discovered_sin1_v = 0.003;
+  compensated.effects.discovered_smoothing_rad_s = 0.01;
+  compensated.effects.discovered_lag_sign_v = -0.01;
+  compensated.effects.discovered_lag_s = 0.01;
+  compensated.effects.discovered_lag_smoothing_rad_s = 0.01;
+  compensated.effects.discovered_dahl_v = -0.004;
+  compensated.effects.discovered_dahl_rad = 2e-3;
   compensated.compensation.mode = CompensationMode::kAll;
   for (const ControlLoopConfig& config : {ControlLoopConfig{}, compensated}) {
     SCOPED_TRACE(to_string(config.compensation.mode));

@@ -50,7 +50,7 @@ TEST(Verdict, WhiteNoiseIsExplained) {
   EXPECT_EQ(v.verdict, ResidualVerdict::kExplained);
   EXPECT_TRUE(v.unexplained.empty());
   EXPECT_NEAR(v.judged_rms, 1e-4, 0.05e-4);
-  EXPECT_EQ(v.text().rfind("explained to the noise floor: judged RMS", 0), 0u) << v.text();
+  EXPECT_EQ(v.text().rfind("explained to the noise floor: judged structure RMS", 0), 0u) << v.text();
   EXPECT_STREQ(verdict_name(v.verdict), "explained");
 }
 
@@ -77,7 +77,42 @@ TEST(Verdict, AHarmonicOfTheFundamentalIsStructureAndLocated) {
   ResidualSeries g = run("sine", 2.0, 1e-4, 10);
   for (std::size_t k = 0; k < g.t.size(); ++k) g.residual[k] += 3e-3 * std::sin(kTwoPi * 2.0 * g.t[k] + 0.3);
   const std::vector<ResidualSeries> gain = {g, run("sine", 5.0, 1e-4, 11)};
-  EXPECT_EQ(judge_residual(gain, estimate_noise_floor(gain)).verdict, ResidualVerdict::kExplained);
+  const VerdictReport two = judge_residual(gain, estimate_noise_floor(gain));
+  EXPECT_EQ(two.verdict, ResidualVerdict::kExplained);
+  // Two sine runs are too few to judge their fundamentals together.
+  EXPECT_TRUE(std::isnan(two.fundamental_median));
+  EXPECT_EQ(two.fundamental_runs, 2u);
+}
+
+TEST(Verdict, MostSineRunsMissingTheirFundamentalIsStructureOneIsNot) {
+  // Four sine runs, white noise σ = 1e-4; a gain and phase error of amplitude 1.5e-3 (RMS
+  // 1.06e-3 = 10.6× the floor) in the first three (a level that changes between runs): the
+  // median of their errors at the fundamental is one of them.
+  const double freqs[] = {1.5, 2.0, 3.0, 5.0};
+  std::vector<ResidualSeries> runs;
+  for (unsigned i = 0; i < 4; ++i) runs.push_back(run("sine", freqs[i], 1e-4, 20 + i));
+  auto add_fundamental = [](ResidualSeries& s, double amplitude, double phase) {
+    for (std::size_t k = 0; k < s.t.size(); ++k) s.residual[k] += amplitude * std::sin(kTwoPi * *s.freq_hz * s.t[k] + phase);
+  };
+  std::vector<ResidualSeries> most = runs;
+  for (unsigned i = 0; i < 3; ++i) add_fundamental(most[i], 1.5e-3, 0.7 * i);
+  const VerdictReport v = judge_residual(most, estimate_noise_floor(most));
+  EXPECT_EQ(v.verdict, ResidualVerdict::kStructureRemains);
+  ASSERT_EQ(v.unexplained.size(), 1u);
+  EXPECT_NE(v.unexplained[0].where.find("3 of 4 runs miss their gain and phase"), std::string::npos)
+      << v.unexplained[0].where;
+  EXPECT_NEAR(v.fundamental_median, 1.5e-3 / std::sqrt(2.0), 0.03e-3);
+  EXPECT_NEAR(v.unexplained[0].ratio, 10.6, 0.6);
+  EXPECT_EQ(v.fundamental_runs_above, 3u);
+  EXPECT_EQ(v.fundamental_runs, 4u);
+  // One run near a resonance missing it, 30× the floor: the α-model's gain and phase, explained.
+  std::vector<ResidualSeries> one = runs;
+  add_fundamental(one[2], 4.2e-3, 0.3);
+  const VerdictReport w = judge_residual(one, estimate_noise_floor(one));
+  EXPECT_EQ(w.verdict, ResidualVerdict::kExplained) << w.text();
+  EXPECT_EQ(w.fundamental_runs_above, 1u);
+  EXPECT_LT(w.fundamental_median, 1e-5);
+  EXPECT_NE(w.text().find("1 of 4 runs above 3× the floor"), std::string::npos) << w.text();
 }
 
 TEST(Verdict, TheJudgedStructureLeavesOutTheFundamentalOnly) {

@@ -25,10 +25,12 @@
 ///    the term in the plant input and the regression repeated on what that model leaves (twice).
 ///    Memory terms (digital loop only; effects.hpp DiscoveredMemory): the library with the two
 ///    columns tanh(f/ε_f) and z, computed along each run's samples in time order, is regressed
-///    at each of a grid of scales (T_f 2-50 ms, δ 0.1-10 % of θ_r); the scales whose chosen
-///    support has a memory term with the lowest cross-validated RMS are a contender when that
-///    RMS is below the library's own choice. Both contenders go through output error (T_f, δ
-///    and ε_f refined there too, within a factor 3, 3 and 10), the better over all runs wins.
+///    at each of a grid of scales (T_f 2-50 ms, δ 0.1-10 % of θ_r, ε_f σ's ε); the
+///    scales whose chosen support has a memory term with the lowest cross-validated RMS are a
+///    second contender, whatever the library's own choice scored (under θ̈'s noise in n̂ a
+///    memory term and its memoryless neighbours score alike). Both contenders go through output
+///    error (T_f, δ and ε_f refined there too, within a factor 3, 3 and 10), the better over
+///    all runs wins.
 /// 3. Output error (output_error.hpp): the chosen terms' coefficients refined together with the
 ///    model's coefficient factors (C_n, β̃ ends) on the fit runs, from the regression's values.
 /// 4. Kept when the RMS of θ − θ_sim over all runs is at most (1 − significance/2) times the
@@ -155,8 +157,8 @@ struct DiscoveredTermResult {
   /// RMS of θ − θ_sim over all runs [position unit] without and with the term.
   double error_before = std::numeric_limits<double>::quiet_NaN();
   double error_after = std::numeric_limits<double>::quiet_NaN();
-  /// The memory terms' contender's RMS over all runs (NaN: none was a contender: the equation
-  /// error preferred no memory term at any scale of the grid, or not the digital loop).
+  /// The memory terms' contender's RMS over all runs (NaN: none was a contender: no scale of
+  /// the grid had a memory term in its chosen support, or not the digital loop).
   double memory_error_after = std::numeric_limits<double>::quiet_NaN();
   /// The noise floor given, and the part of the gap to it the term closes,
   /// (error_before − error_after)/(error_before − floor) (NaN without a floor below before).
