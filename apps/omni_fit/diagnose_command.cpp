@@ -139,6 +139,7 @@ nlohmann::json result_json(const DiagnoseResult& res) {
     }
     j["disturbance"] = {{"named", f.named}, {"message", f.message}, {"rms_v", num(f.rms_v)},
                         {"error_before", num(f.error_before)}, {"error_after", num(f.error_after)},
+                        {"touched_before", num(f.touched_before)}, {"touched_after", num(f.touched_after)},
                         {"intervals", iv}, {"recorded_disturbance_v", recorded}, {"runs", per_run}};
   }
   return j;

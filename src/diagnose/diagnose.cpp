@@ -1941,20 +1941,26 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
     }
   }
   // --- a provisional estimate judged again, with the effects the rounds named: named when the
-  // error over all runs drops by the significance with it known; else the rounds run again
-  // without it.
+  // error over the runs it touches drops by the significance with it known; else the rounds
+  // run again without it.
   if (provisional) {
-    const double with = locate(runs_in, simulate_diagnosed(runs_in, model.effects, model.scales,
-                                                           opt.simulation, opt.threads, model.alpha))
-                            .rms;
-    const double without = locate(runs_given, simulate_diagnosed(runs_given, model.effects,
-                                                                 model.scales, opt.simulation,
-                                                                 opt.threads, model.alpha))
-                               .rms;
+    const auto sims_with =
+        simulate_diagnosed(runs_in, model.effects, model.scales, opt.simulation, opt.threads, model.alpha);
+    const auto sims_without =
+        simulate_diagnosed(runs_given, model.effects, model.scales, opt.simulation, opt.threads, model.alpha);
+    DisturbanceFinding judged_again = res.disturbance;
+    judged_again.touched_after = error_over_runs(runs_in, sims_with, &res.disturbance);
+    judged_again.touched_before = error_over_runs(runs_given, sims_without, &res.disturbance);
+    judged_again.error_after = error_over_runs(runs_in, sims_with);
+    judged_again.error_before = error_over_runs(runs_given, sims_without);
+    const bool several = judged_on_runs_touched(res.disturbance);
+    const double with = several ? judged_again.touched_after : judged_again.error_after;
+    const double without = several ? judged_again.touched_before : judged_again.error_before;
     const std::string judged = "with the " + std::to_string(res.effects_named.size()) +
-                               " effect(s) the rounds named: RMS of theta - theta_sim " +
+                               " effect(s) the rounds named: RMS of theta - theta_sim over " +
+                               (several ? "the runs it touches " : "all runs ") +
                                num(without, "%.4g") + " -> " + num(with, "%.4g") + " with it known";
-    if (!(std::isfinite(with) && with <= (1.0 - opt.significance) * without)) {
+    if (!disturbance_significant(judged_again, opt.significance)) {
       DiagnoseResult out =
           diagnose_with_disturbance(runs_given, catalogue, opt, res_given, t_start, false);
       out.disturbance.message += "; kept as a known input while the rounds ran, and still not below "
@@ -1966,8 +1972,10 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
                               num(res.disturbance.error_before, "%.4g") + " -> " +
                               num(res.disturbance.error_after, "%.4g") + ": masked by them)";
     res.disturbance.named = true;
-    res.disturbance.error_before = without;
-    res.disturbance.error_after = with;
+    res.disturbance.touched_before = judged_again.touched_before;
+    res.disturbance.touched_after = judged_again.touched_after;
+    res.disturbance.error_before = judged_again.error_before;
+    res.disturbance.error_after = judged_again.error_after;
     model.effects.disturbance_rms_v = res.disturbance.rms_v;
     model.named.insert(model.named.begin(), EffectKind::kExternalDisturbance);
     res.effects_named.insert(res.effects_named.begin(), EffectKind::kExternalDisturbance);

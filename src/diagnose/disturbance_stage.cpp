@@ -163,11 +163,31 @@ double reference_period_s(const RunData& d) {
   return hi_gap - lo_gap <= 0.02 * period ? period : 0.0;
 }
 
-/// RMS of θ − θ_sim over all samples of all runs (NaN when a simulation failed).
+}  // namespace
+
+std::size_t runs_touched(const DisturbanceFinding& f) {
+  std::size_t n = 0;
+  for (const DisturbanceEstimate& e : f.runs) n += e.intervals.empty() ? 0 : 1;
+  return n;
+}
+
+bool judged_on_runs_touched(const DisturbanceFinding& f) {
+  const std::size_t n = runs_touched(f);
+  return n >= 2 && 2 * n >= f.runs.size();
+}
+
+bool disturbance_significant(const DisturbanceFinding& f, double significance) {
+  const bool several = judged_on_runs_touched(f);
+  const double before = several ? f.touched_before : f.error_before;
+  const double after = several ? f.touched_after : f.error_after;
+  return std::isfinite(after) && after <= (1.0 - significance) * before;
+}
+
 double error_over_runs(const std::vector<DiagnoseRun>& runs,
-                       const std::vector<std::vector<double>>& sims) {
+                       const std::vector<std::vector<double>>& sims, const DisturbanceFinding* touched) {
   double ss = 0.0, n = 0.0;
   for (std::size_t i = 0; i < runs.size(); ++i) {
+    if (touched != nullptr && (i >= touched->runs.size() || touched->runs[i].intervals.empty())) continue;
     const RunData& d = *runs[i].data;
     if (sims[i].size() != d.size()) return kNaN;
     for (std::size_t k = 0; k < d.size(); ++k) ss += (d.theta[k] - sims[i][k]) * (d.theta[k] - sims[i][k]);
@@ -175,8 +195,6 @@ double error_over_runs(const std::vector<DiagnoseRun>& runs,
   }
   return n > 0 ? std::sqrt(ss / n) : kNaN;
 }
-
-}  // namespace
 
 DisturbanceFinding locate_external_disturbance(const std::vector<DiagnoseRun>& runs,
                                                const RoundModel& model,
@@ -224,15 +242,23 @@ DisturbanceFinding locate_external_disturbance(const std::vector<DiagnoseRun>& r
   f.named = true;  // (for with_located_disturbance; decided below)
   std::vector<RunData> with_d;
   const std::vector<DiagnoseRun> runs_d = with_located_disturbance(runs, f, with_d);
-  f.error_before = error_over_runs(
-      runs, simulate_diagnosed(runs, model.effects, model.scales, opt.simulation, opt.threads, model.alpha));
-  f.error_after = error_over_runs(
-      runs_d, simulate_diagnosed(runs_d, model.effects, model.scales, opt.simulation, opt.threads, model.alpha));
-  const std::string sizes = std::to_string(f.intervals) + " interval(s), d RMS " +
-                            common::format("%.3g", f.rms_v) + "; RMS of theta - theta_sim " +
+  const auto sims_before =
+      simulate_diagnosed(runs, model.effects, model.scales, opt.simulation, opt.threads, model.alpha);
+  const auto sims_after =
+      simulate_diagnosed(runs_d, model.effects, model.scales, opt.simulation, opt.threads, model.alpha);
+  f.error_before = error_over_runs(runs, sims_before);
+  f.error_after = error_over_runs(runs_d, sims_after);
+  f.touched_before = error_over_runs(runs, sims_before, &f);
+  f.touched_after = error_over_runs(runs_d, sims_after, &f);
+  const std::size_t touched = runs_touched(f);
+  const std::string sizes = std::to_string(f.intervals) + " interval(s) in " + std::to_string(touched) +
+                            " run(s), d RMS " + common::format("%.3g", f.rms_v) +
+                            "; RMS of theta - theta_sim over those runs " +
+                            common::format("%.4g", f.touched_before) + " -> " +
+                            common::format("%.4g", f.touched_after) + " with it known (all runs " +
                             common::format("%.4g", f.error_before) + " -> " +
-                            common::format("%.4g", f.error_after) + " with it known";
-  f.named = std::isfinite(f.error_after) && f.error_after <= (1.0 - opt.significance) * f.error_before;
+                            common::format("%.4g", f.error_after) + ")";
+  f.named = disturbance_significant(f, opt.significance);
   f.message = f.named ? "located in time: " + sizes
                       : "located in time but not below (1 - significance) x the error before: " + sizes;
   return f;

@@ -461,6 +461,7 @@ TEST(DiagnoseStages, ExternalDisturbanceLocatesUnrecordedPulsesInTime) {
   ASSERT_TRUE(f.tried);
   EXPECT_TRUE(f.named) << f.message;
   EXPECT_LT(f.error_after, 0.9 * f.error_before) << f.message;
+  EXPECT_LT(f.touched_after, 0.9 * f.touched_before) << f.message;
   for (bool r : f.recorded) EXPECT_FALSE(r);
   // The pulses of the truth after the runs' first second: most have an interval starting within
   // 10 ms (not those within 0.5 s after a square run's jumps, which are left out), with its
@@ -489,6 +490,45 @@ TEST(DiagnoseStages, ExternalDisturbanceLocatesUnrecordedPulsesInTime) {
   EXPECT_GE(level_ok, found * 8 / 10) << level_ok << " of " << found;
   // Not many intervals where there is no pulse.
   EXPECT_LE(f.intervals, pulses + pulses / 5);
+}
+
+TEST(DiagnoseStages, TheDisturbanceIsJudgedOnTheRunsItTouches) {
+  // Three runs of 1001 samples: θ − θ_sim = 0.01, 0.02 and 0.1 (the last a run d̂ does not
+  // touch, e.g. one near a resonance whose pulses were not located). Over all runs the RMS is
+  // sqrt((1e-4 + 4e-4 + 1e-2)/3); over the two with intervals sqrt((1e-4 + 4e-4)/2).
+  const RunData a = sine_data(1.0, 0.5), b = sine_data(1.0, 0.5), c = sine_data(1.0, 0.5);
+  const std::vector<DiagnoseRun> runs = {run_of(a, "a", 2.0), run_of(b, "b", 2.0), run_of(c, "c", 2.0)};
+  std::vector<std::vector<double>> sims;
+  for (double e : {0.01, 0.02, 0.1}) {
+    sims.push_back(a.theta);
+    for (double& x : sims.back()) x -= e;
+  }
+  EXPECT_NEAR(error_over_runs(runs, sims), std::sqrt((1e-4 + 4e-4 + 1e-2) / 3.0), 1e-12);
+  DisturbanceFinding f;
+  f.runs.resize(3);
+  f.runs[0].intervals.push_back({0.2, 0.3, 0.01, 8.0});
+  f.runs[1].intervals.push_back({0.5, 0.6, -0.01, 8.0});
+  EXPECT_NEAR(error_over_runs(runs, sims, &f), std::sqrt((1e-4 + 4e-4) / 2.0), 1e-12);
+  // Significant on the runs it touches when they are two or more and at least half (2 of 3 here:
+  // −10 % there, −1 % over all).
+  f.touched_before = 0.02, f.touched_after = 0.0179;
+  f.error_before = 0.06, f.error_after = 0.0594;
+  EXPECT_TRUE(disturbance_significant(f, 0.10));
+  f.touched_after = 0.0181;
+  EXPECT_FALSE(disturbance_significant(f, 0.10));
+  // One run touched: over all runs.
+  f.runs[1].intervals.clear();
+  f.touched_after = 0.01;
+  EXPECT_FALSE(disturbance_significant(f, 0.10));
+  f.error_after = 0.0539;
+  EXPECT_TRUE(disturbance_significant(f, 0.10));
+  f.runs[1].intervals.push_back({0.5, 0.6, -0.01, 8.0});
+  // A failed simulation of a touched run: NaN; of an untouched one: not counted.
+  sims[2].clear();
+  EXPECT_NEAR(error_over_runs(runs, sims, &f), std::sqrt((1e-4 + 4e-4) / 2.0), 1e-12);
+  EXPECT_TRUE(std::isnan(error_over_runs(runs, sims)));
+  sims[0].clear();
+  EXPECT_TRUE(std::isnan(error_over_runs(runs, sims, &f)));
 }
 
 TEST(DiagnoseStages, ExternalDisturbanceRecordedIsKnownAndNothingIsLeftToLocate) {
