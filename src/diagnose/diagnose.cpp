@@ -1953,13 +1953,12 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
     judged_again.touched_before = error_over_runs(runs_given, sims_without, &res.disturbance);
     judged_again.error_after = error_over_runs(runs_in, sims_with);
     judged_again.error_before = error_over_runs(runs_given, sims_without);
-    const bool several = judged_on_runs_touched(res.disturbance);
-    const double with = several ? judged_again.touched_after : judged_again.error_after;
-    const double without = several ? judged_again.touched_before : judged_again.error_before;
+    const JudgedDisturbanceError judged_error = judged_disturbance_error(judged_again);
     const std::string judged = "with the " + std::to_string(res.effects_named.size()) +
                                " effect(s) the rounds named: RMS of theta - theta_sim over " +
-                               (several ? "the runs it touches " : "all runs ") +
-                               num(without, "%.4g") + " -> " + num(with, "%.4g") + " with it known";
+                               (judged_error.on_runs_touched ? "the runs it touches " : "all runs ") +
+                               num(judged_error.before, "%.4g") + " -> " + num(judged_error.after, "%.4g") +
+                               " with it known";
     if (!disturbance_significant(judged_again, opt.significance)) {
       DiagnoseResult out =
           diagnose_with_disturbance(runs_given, catalogue, opt, res_given, t_start, false);

@@ -454,9 +454,16 @@ std::size_t runs_touched(const DisturbanceFinding& f);
 /// 30 ms lagged friction, seed 8: 6 intervals in 2 of 10 runs, −12 % there, −4 % over all).
 bool judged_on_runs_touched(const DisturbanceFinding& f);
 
-/// Whether d̂ is significant (DisturbanceFinding, diagnose.hpp): the RMS over the runs it
-/// touches (touched_before/_after) when judged_on_runs_touched(), else over all runs
-/// (error_before/_after), drops below (1 − significance) × before.
+/// The RMS that judges d̂, without and with it known: over the runs it touches
+/// (touched_before/_after) when judged_on_runs_touched(), else over all runs (error_before/_after).
+struct JudgedDisturbanceError {
+  double before, after;
+  bool on_runs_touched;
+};
+JudgedDisturbanceError judged_disturbance_error(const DisturbanceFinding& f);
+
+/// Whether d̂ is significant (DisturbanceFinding, diagnose.hpp): judged_disturbance_error()
+/// drops below (1 − significance) × before.
 bool disturbance_significant(const DisturbanceFinding& f, double significance);
 
 /// RMS of θ − θ_sim (`sims`, one per run) over all samples of the runs, or of those where

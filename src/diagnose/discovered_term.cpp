@@ -559,14 +559,17 @@ DiscoveredTermResult discover_term(const std::vector<DiagnoseRun>& fit_runs,
   const double bound = 2.0 * std::max(sc.v_max, 1e-12);
   // The memory terms' scales: nullopt, the library alone.
   struct MemoryScales {
-    double lag_s = 0.0, dahl_rad = 0.0, lag_smoothing_rad_s = 0.0;
+    double lag_s = 0.0, dahl_rad = 0.0;
   };
   auto with_scales = [&](const std::optional<MemoryScales>& mem) {
     Effects t = e;
     if (mem) {
       t.discovered_lag_s = mem->lag_s;
       t.discovered_dahl_rad = mem->dahl_rad;
-      t.discovered_lag_smoothing_rad_s = mem->lag_smoothing_rad_s;  // refined by output error
+      // (ε_f starts at σ's ε, refined by output error; a second grid value, 6ε, was tried on
+      // 2026-12-04: on the invented hysteresis it picked a 7.8 ms lag that closed 3 % of the
+      // judged structure where ε's 28.6 ms closed 55 %, and changed no other case.)
+      t.discovered_lag_smoothing_rad_s = t.discovered_smoothing_rad_s;
     }
     return t;
   };
@@ -615,10 +618,7 @@ DiscoveredTermResult discover_term(const std::vector<DiagnoseRun>& fit_runs,
   if (opt.memory && opt.simulation.loop_period_s > 0.0) {
     for (double lag_s : kLagGridS) {
       for (double fraction : kDahlGridFraction) {
-        // (ε_f starts at σ's ε, refined by output error; a second grid value, 6ε, was tried on
-        // 2026-12-04: on the invented hysteresis it picked a 7.8 ms lag that closed 3 % of the
-        // judged structure where ε's 28.6 ms closed 55 %, and changed no other case.)
-        const MemoryScales m{lag_s, fraction * e.discovered_position_scale_rad, e.discovered_smoothing_rad_s};
+        const MemoryScales m{lag_s, fraction * e.discovered_position_scale_rad};
         SparseRegressionResult r = regress(tr0, m);
         if (!r.ok || !has_memory(r)) continue;
         if (!memory || r.chosen.cv_rms < memory_regression.chosen.cv_rms) {

@@ -176,11 +176,14 @@ bool judged_on_runs_touched(const DisturbanceFinding& f) {
   return n >= 2 && 2 * n >= f.runs.size();
 }
 
+JudgedDisturbanceError judged_disturbance_error(const DisturbanceFinding& f) {
+  if (judged_on_runs_touched(f)) return {f.touched_before, f.touched_after, true};
+  return {f.error_before, f.error_after, false};
+}
+
 bool disturbance_significant(const DisturbanceFinding& f, double significance) {
-  const bool several = judged_on_runs_touched(f);
-  const double before = several ? f.touched_before : f.error_before;
-  const double after = several ? f.touched_after : f.error_after;
-  return std::isfinite(after) && after <= (1.0 - significance) * before;
+  const JudgedDisturbanceError e = judged_disturbance_error(f);
+  return std::isfinite(e.after) && e.after <= (1.0 - significance) * e.before;
 }
 
 double error_over_runs(const std::vector<DiagnoseRun>& runs,

@@ -199,20 +199,20 @@ struct DiagnoseRound {
 /// of time located in every run's equation-error torque residual with the model given
 /// (external_disturbance.hpp), then checked by simulating every run with d̂ added to its
 /// `disturbance_v` column (a known input, plant_input.hpp). Named when some run has intervals and
-/// the RMS of θ − θ_sim over the runs with intervals (the runs d̂ touches; the others do not
-/// change; when they are fewer than two or than half the runs, over all runs: a few runs'
-/// intervals are as often the model's misfit standing out there, diagnose_stages.hpp) drops
-/// below (1 − significance) × before; the rounds then run
-/// with d̂ known. (Judged
-/// over all runs, one run whose pulses were not located dominated the pooled error: pulses of
-/// 0.065 V located at their level in 9 of 10 runs cut those runs' error 22 % but all runs' 6 %,
-/// the unlocated run near the resonance holding 72 % of the squared error.) Located but not significant with the model given (masked by an effect the
-/// model misses): the rounds run with d̂ known, and it is judged again with the effects they
-/// named (error_before/error_after are then that check's, the message gives both); still not
+/// the RMS of θ − θ_sim drops below (1 − significance) × before, over the runs with intervals
+/// (the runs d̂ touches; the others do not change) when they are at least two and half the runs,
+/// else over all runs (a few runs' intervals are as often the model's misfit standing out there:
+/// diagnose_stages.hpp judged_on_runs_touched()). The rounds then run with d̂ known. (Judged over
+/// all runs always, one run whose pulses were not located dominated the pooled error: pulses of
+/// 0.065 V located at their level in 9 of 10 runs cut those runs' error 21 % but all runs' 6 %,
+/// the unlocated run near the resonance holding 72 % of the squared error.) Located but not
+/// significant with the model given (masked by an effect the model misses): the rounds run with
+/// d̂ known, and it is judged again with the effects they named (error_before/_after and
+/// touched_before/_after are then that check's, the message gives both); still not
 /// significant, the rounds run again without it.
 struct DisturbanceFinding {
   bool tried = false;   ///< the candidates include external_disturbance
-  bool named = false;   ///< located, and the error over the runs it touches drops (above)
+  bool named = false;   ///< located, and the error judged (above) drops
   std::string message;  ///< what was found, or why it is not named
   std::vector<std::string> run_names;       ///< every run's name, in order
   std::vector<DisturbanceEstimate> runs;    ///< per run (not ok: too short)

@@ -28,7 +28,7 @@
 ///   fundamental of one or two runs near a resonance, where θ is most sensitive to C and β̃ (an
 ///   effect-free one-pose paper dataset, seed 31: 3.3e-3 at 3 Hz = 50× the floor, below 3× in
 ///   7 of 9 runs); when most runs miss it, no one α-model gives every run its gain and phase (a
-///   friction level that changes between runs: 8 of 9 runs above 3×, median 13×).
+///   friction level that changes between runs, seed 32: 8 of 9 runs above 3×, median 11×).
 /// Structure remains when any part is more than VerdictOptions::ratio (3) times the floor.
 /// Offline.
 
