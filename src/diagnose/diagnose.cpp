@@ -402,8 +402,64 @@ std::optional<AlphaModel> Reidentifier::fit_at(const Effects& e,
   return r.model;
 }
 
+namespace {
+
+/// The α-model that is linear in α across the widest gap of the sine points' α (a ratio of
+/// more than kGapRatio between neighbours): its breakpoints include both ends of the gap, the
+/// others at data α, the best of those sets by the points' score. The grid's sets fit the
+/// points alike and place a knee anywhere in such a gap (an effect-free dataset at one pose,
+/// α = 0.42, 2.6 | 36 … 103: breakpoints 3.3, 4.0 where the plant's are 2.2 and 25), yet the
+/// square runs' ringing passes through it; output error decides between them
+/// (best_variant()). nullopt without such a gap.
+std::optional<AlphaModel> across_the_gap(const std::vector<AlphaFitPose>& poses, const AlphaFitOptions& o) {
+  constexpr double kGapRatio = 4.0;
+  std::vector<double> a;
+  for (const AlphaFitPose& p : poses) {
+    for (const LocalLinearPoint& q : p.points) {
+      if (q.physical && std::isfinite(q.alpha_data) && q.alpha_data > 0.0) a.push_back(q.alpha_data);
+    }
+  }
+  std::sort(a.begin(), a.end());
+  a.erase(std::unique(a.begin(), a.end(), [](double x, double y) { return y < x * 1.02; }), a.end());
+  const std::size_t n = o.n_breakpoints;
+  if (n < 3 || a.size() < n) return std::nullopt;
+  std::size_t gap = 0;
+  double widest = 0.0;
+  for (std::size_t k = 0; k + 1 < a.size(); ++k) {
+    if (a[k + 1] / a[k] > widest) widest = a[k + 1] / a[k], gap = k;
+  }
+  if (widest < kGapRatio) return std::nullopt;
+  // Breakpoints 0, a[gap], a[gap+1] and n − 3 more data α: every such set, the best by score.
+  std::vector<double> others;
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    if (k != gap && k != gap + 1) others.push_back(a[k]);
+  }
+  const std::size_t free = n - 3;
+  if (free > others.size()) return std::nullopt;
+  std::optional<AlphaModel> best;
+  double best_score = std::numeric_limits<double>::infinity();
+  std::vector<std::size_t> idx(free);
+  for (std::size_t k = 0; k < free; ++k) idx[k] = k;
+  while (true) {
+    std::vector<double> bp = {0.0, a[gap], a[gap + 1]};
+    for (std::size_t k : idx) bp.push_back(others[k]);
+    std::sort(bp.begin(), bp.end());
+    const AlphaFitResult r = fit_alpha_model_at(poses, bp, o);
+    if (r.ok && r.model.valid() && r.score < best_score) best_score = r.score, best = r.model;
+    // next combination of `free` out of others.size()
+    std::size_t j = free;
+    while (j > 0 && idx[j - 1] == others.size() - free + j - 1) --j;
+    if (j == 0) break;
+    ++idx[j - 1];
+    for (std::size_t k = j; k < free; ++k) idx[k] = idx[k - 1] + 1;
+  }
+  return best;
+}
+
+}  // namespace
+
 std::vector<AlphaModel> Reidentifier::variants(const Effects& e, std::size_t runners_up,
-                                               bool refined) const {
+                                               bool refined, bool across_gap) const {
   std::vector<AlphaModel> out;
   if (!usable_) return out;
   const std::vector<AlphaFitPose> poses = points(e);
@@ -422,10 +478,19 @@ std::vector<AlphaModel> Reidentifier::variants(const Effects& e, std::size_t run
     const AlphaFitResult v = fit_alpha_model_at(poses, bp, o);
     if (v.ok && v.model.valid()) out.push_back(v.model);
   }
+  if (across_gap) {
+    if (const std::optional<AlphaModel> g = across_the_gap(poses, o)) out.push_back(*g);
+  }
   return out;
 }
 
 namespace {
+
+/// The first `n_breakpoints` of an α-model: its breakpoints.
+std::vector<double> breakpoints_of(const AlphaModel& a) {
+  return std::vector<double>(a.alpha.begin(),
+                             a.alpha.begin() + static_cast<std::ptrdiff_t>(a.n_breakpoints));
+}
 
 /// The new effect's parameters searched with the α-model re-identified at every value (unit
 /// coefficient factors).
@@ -506,15 +571,17 @@ void search_effect(EffectSearch& s, const std::vector<std::vector<double>>& star
 /// candidate is given the same choice; `none` also the refined winner (`refined`) and the model
 /// as given (`also`): the local refinement moves the breakpoints discontinuously with the data,
 /// and offered to a candidate it would let it win by a luckier α-model alone, so the benefit of
-/// the doubt goes to `none`.
+/// the doubt goes to `none`. `across_gap`: also the model linear across the widest gap of the
+/// sine points' α (across_the_gap(); only for the refit of `none` when nothing is named,
+/// DiagnoseRound::none_refitted).
 std::optional<AlphaModel> best_variant(const Reidentifier& reid, const Effects& e,
                                        const std::vector<DiagnoseRun>& runs,
                                        const std::vector<std::size_t>& fit_runs,
                                        const ModelScales& unit, const DiagnoseOptions& opt,
                                        bool refined,
                                        const std::optional<AlphaModel>& also = std::nullopt,
-                                       double* rms = nullptr) {
-  std::vector<AlphaModel> models = reid.variants(e, kAlphaVariants, refined);
+                                       double* rms = nullptr, bool across_gap = false) {
+  std::vector<AlphaModel> models = reid.variants(e, kAlphaVariants, refined, across_gap);
   if (also) models.push_back(*also);
   std::optional<AlphaModel> best;
   double best_rms = kInf;
@@ -1201,11 +1268,6 @@ bool set_aside_if_inactive(CandidateScore& c, double largest_abs_v) {
 
 namespace {
 
-/// The first `n_breakpoints` of an α-model: its breakpoints.
-std::vector<double> breakpoints_of(const AlphaModel& a) {
-  return std::vector<double>(a.alpha.begin(),
-                             a.alpha.begin() + static_cast<std::ptrdiff_t>(a.n_breakpoints));
-}
 
 /// Parsimony: among candidates within 5 % of the best score (candidates[best]), the one with
 /// fewest parameters (an offset torque is also a gravity term with θ0 = −π/2 over a small range
@@ -1692,6 +1754,22 @@ DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const Prep
       return rd;
     }
     rd.error_after = rd.error_before;  // `none`: the model stays as it was
+    // … unless diagnose() takes `none` refitted (DiagnoseRound::none_refitted), offered in
+    // `settled` when it does better over all runs: with the α-model variants and the one
+    // linear across the widest gap of the sine points' α, fitted and settled as a candidate.
+    if (reid.usable()) {
+      const std::optional<AlphaModel> alpha =
+          best_variant(reid, model.effects, prepared.runs, prepared.fit_runs, prepared.unit_scales, opt,
+                       true, start.none_alpha, nullptr, true);
+      if (alpha) {
+        const CandidateScore c =
+            fitter.fit(EffectKind::kNone, model.effects, prepared.unit_scales, alpha, false, false, nullptr);
+        if (c.ok) {
+          CandidateScore none = settle_winner(fitter, c);
+          if (std::isfinite(none.error_after) && none.error_after < rd.error_before) *settled = std::move(none);
+        }
+      }
+    }
     return rd;
   }
   rd.named = s.effect;
@@ -1916,6 +1994,24 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
       break;
     }
     if (named == EffectKind::kNone) {
+      DiagnoseRound& last = res.rounds.back();
+      if (settled.ok && settled.effect == EffectKind::kNone && settled.error_after < last.error_before) {
+        // The model's own, refitted (DiagnoseRound::none_refitted), only when it explains the
+        // data to the noise floor and the model as it came does not.
+        auto explained = [&](const Effects& e, const ModelScales& sc, const std::optional<AlphaModel>& a) {
+          const auto sims = simulate_diagnosed(runs_in, e, sc, opt.simulation, opt.threads, a);
+          return judge_residual(residual_series(runs_in, sims), res.noise_floor).verdict ==
+                 ResidualVerdict::kExplained;
+        };
+        if (explained(settled.effects, settled.scales, settled.alpha) &&
+            !explained(model.effects, model.scales, model.alpha)) {
+          last.none_refitted = true;
+          last.error_after = settled.error_after;
+          model.effects = settled.effects;
+          model.scales = settled.scales;
+          model.alpha = settled.alpha;
+        }
+      }
       res.termination = DiagnoseTermination::kNoneNamed;
       break;
     }

@@ -331,5 +331,32 @@ TEST(DiagnoseReal, EmpsNamesCoulombAndTheReferenceOffsetAndNoPassenger) {
   EXPECT_LT(r.error_after, 0.3 * r.error_before);
 }
 
+// Nothing named, and the model's own α-model refitted (with the variant linear across the
+// widest gap of the sine points' α) explains the data where the model as it came does not:
+// diagnose goes on with it (DiagnoseRound::none_refitted). Effect-free, at the pose whose sine
+// points leave a gap in α (25°/115°: α ≈ 0.4, 2.6 | 36 … 103) that the square run's ringing
+// passes through; the grid placed two breakpoints just above 2.6 where the plant's are 2.2
+// and 25, and the model as fitted missed the square run's ringing by 20× the floor.
+TEST(DiagnoseEndToEnd, AnEffectFreeModelIsRefittedAcrossTheGapOfItsSinePoints) {
+  constexpr std::uint64_t seed = 29;  // pose 29 % 9 = 2 (25°/115°)
+  ExperimentPlanOptions plan = paper_plan_options(seed);
+  plan.plant.effects.coulomb_v = 0.0;
+  plan.plant.measurement.noise_std_rad = 2e-4;
+  const auto poses = paper_sine_poses();
+  plan.sine_poses = {poses[seed % poses.size()]};
+  plan.square_poses = plan.sine_poses;
+  const GeneratedDataset g = generate_dataset(make_experiment_plan(plan));
+  DiagnoseOptions o;
+  o.discover = false;
+  const DiagnoseResult r = diagnose_dataset(g.index, g.runs, o);
+  ASSERT_TRUE(r.ok) << r.message;
+  EXPECT_TRUE(r.effects_named.empty()) << r.full_report();
+  ASSERT_EQ(r.rounds.size(), 1u);
+  EXPECT_TRUE(r.rounds.front().none_refitted) << r.full_report();
+  EXPECT_LT(r.error_after, 0.6 * r.error_before);
+  EXPECT_DOUBLE_EQ(r.rounds.front().error_after, r.error_after);
+  EXPECT_EQ(r.verdict.verdict, ResidualVerdict::kExplained) << r.verdict.text();
+}
+
 }  // namespace
 }  // namespace alphainv
