@@ -237,8 +237,18 @@ DisturbanceFinding locate_external_disturbance(const std::vector<DiagnoseRun>& r
     n += static_cast<double>(f.runs[i].d_v.size());
   }
   f.rms_v = n > 0 ? std::sqrt(ss / n) : 0.0;
+  std::size_t mirrored = 0, mirrored_runs = 0;
+  for (const DisturbanceEstimate& e : f.runs) {
+    mirrored += e.half_period_pairs_set_aside;
+    mirrored_runs += e.half_period_pairs_set_aside > 0 ? 1 : 0;
+  }
   if (f.intervals == 0) {
-    f.message = "no time window of the torque residual stands out of its spread in any run";
+    f.message = mirrored == 0
+                    ? "no time window of the torque residual stands out of its spread in any run"
+                    : std::to_string(mirrored) + " time window(s) of the torque residual in " +
+                          std::to_string(mirrored_runs) +
+                          " run(s) stand out, each with one of the opposite sign half a reference "
+                          "period away: the model's misfit along the reference, not a torque of time";
     return f;
   }
   // Checked by simulation: every run with d̂ added to its disturbance_v column.

@@ -130,6 +130,47 @@ std::vector<double> without_periodic_part(const std::vector<double>& t, const st
 DisturbanceEstimate locate_once(const std::vector<double>& t, const std::vector<double>& n,
                                 const std::vector<bool>& valid, const DisturbanceOptions& o);
 
+/// Sets aside the intervals of `d` that have a neighbour of the opposite sign half a reference
+/// period away (within DisturbanceOptions::kHalfPeriodTolerance of it): the model's misfit along
+/// a periodic reference, mirrored in each half cycle (header comment). period_s 0: nothing.
+void set_aside_half_period_pairs(const std::vector<double>& t, double period_s, DisturbanceEstimate& d) {
+  if (!(period_s > 0.0) || d.intervals.size() < 2) return;
+  const double half = 0.5 * period_s;
+  std::vector<bool> paired(d.intervals.size(), false);
+  const auto centre = [](const DisturbanceInterval& iv) { return 0.5 * (iv.start_s + iv.end_s); };
+  for (std::size_t i = 0; i < d.intervals.size(); ++i) {
+    for (std::size_t j = i + 1; j < d.intervals.size(); ++j) {
+      const double gap = centre(d.intervals[j]) - centre(d.intervals[i]);
+      if (std::abs(gap - half) <= DisturbanceOptions::kHalfPeriodTolerance * half &&
+          d.intervals[i].level_v * d.intervals[j].level_v < 0.0) {
+        paired[i] = paired[j] = true;
+      }
+    }
+  }
+  std::vector<DisturbanceInterval> kept;
+  std::size_t set_aside = 0;
+  for (std::size_t i = 0; i < d.intervals.size(); ++i) {
+    if (!paired[i]) {
+      kept.push_back(d.intervals[i]);
+      continue;
+    }
+    ++set_aside;
+    for (std::size_t k = 0; k < t.size(); ++k) {
+      if (t[k] >= d.intervals[i].start_s && t[k] < d.intervals[i].end_s) d.d_v[k] = 0.0;
+    }
+  }
+  if (set_aside == 0) return;
+  d.intervals = std::move(kept);
+  d.half_period_pairs_set_aside = set_aside;
+  double ss = 0.0;
+  for (double v : d.d_v) ss += v * v;
+  d.rms_v = d.d_v.empty() ? 0.0 : std::sqrt(ss / static_cast<double>(d.d_v.size()));
+  const std::string why = std::to_string(set_aside) +
+                          " interval(s) set aside: each with one of the opposite sign half a reference "
+                          "period away (the model's misfit along the reference, not a torque of time)";
+  d.message = d.intervals.empty() ? why : (d.message.empty() ? why : d.message + "; " + why);
+}
+
 }  // namespace
 
 DisturbanceEstimate locate_disturbance(const std::vector<double>& t, const std::vector<double>& n,
@@ -163,14 +204,19 @@ DisturbanceEstimate locate_disturbance(const std::vector<double>& t, const std::
   DisturbanceEstimate d = locate_once(
       t, without_periodic_part(t, state_remainder(n, valid, basis), valid, o.reference_period_s, bin_s),
       valid, o);
-  if ((basis.empty() && !(o.reference_period_s > 0.0)) || d.intervals.empty()) return d;
+  if ((basis.empty() && !(o.reference_period_s > 0.0)) || d.intervals.empty()) {
+    set_aside_half_period_pairs(t, o.reference_period_s, d);
+    return d;
+  }
   // Again with the state (and the periodic part) fitted without the intervals' samples (the
   // pulses do not bend it).
   std::vector<bool> use = valid;
   for (std::size_t k = 0; k < t.size(); ++k) use[k] = use[k] && d.d_v[k] == 0.0;
-  return locate_once(
+  DisturbanceEstimate again = locate_once(
       t, without_periodic_part(t, state_remainder(n, use, basis), use, o.reference_period_s, bin_s),
       valid, o);
+  set_aside_half_period_pairs(t, o.reference_period_s, again);
+  return again;
 }
 
 namespace {

@@ -193,5 +193,39 @@ TEST(LocateDisturbance, RemovesWhatRepeatsWithTheReferenceBeforeLocating) {
   EXPECT_EQ(s.intervals.size(), s_blind.intervals.size());
 }
 
+
+// Mirrored half cycles: under a reference of period 1 s (too few cycles in the 3 s for its
+// periodic part to be removed), two intervals of opposite sign 0.5 s apart are the model's misfit
+// along the reference and are set aside; the same with one sign, or 0.8 s apart, are kept.
+TEST(LocateDisturbance, SetsAsideIntervalsOfOppositeSignHalfAPeriodApart) {
+  DisturbanceOptions o;
+  o.reference_period_s = 1.0;
+  const auto with_pair = [&](double second_start, double second_level) {
+    std::vector<double> t, n;
+    base_signal(3.0, t, n, 5);
+    for (std::size_t k = 0; k < t.size(); ++k) {
+      if (t[k] >= 1.0005 && t[k] < 1.1005) n[k] += 0.05;
+      if (t[k] >= second_start && t[k] < second_start + 0.1) n[k] += second_level;
+    }
+    return locate_disturbance(t, n, {}, o, state_of(t));
+  };
+  const DisturbanceEstimate mirrored = with_pair(1.5005, -0.05);
+  ASSERT_TRUE(mirrored.ok) << mirrored.message;
+  EXPECT_TRUE(mirrored.intervals.empty()) << mirrored.message;
+  EXPECT_EQ(mirrored.half_period_pairs_set_aside, 2u);
+  EXPECT_DOUBLE_EQ(mirrored.rms_v, 0.0);
+  for (double d : mirrored.d_v) ASSERT_EQ(d, 0.0);
+  EXPECT_NE(mirrored.message.find("half a reference period"), std::string::npos) << mirrored.message;
+  const DisturbanceEstimate one_sign = with_pair(1.5005, 0.05);
+  EXPECT_EQ(one_sign.intervals.size(), 2u) << one_sign.message;
+  EXPECT_EQ(one_sign.half_period_pairs_set_aside, 0u);
+  const DisturbanceEstimate off_the_half = with_pair(1.8005, -0.05);
+  EXPECT_EQ(off_the_half.intervals.size(), 2u) << off_the_half.message;
+  // Without a periodic reference nothing is set aside.
+  o.reference_period_s = 0.0;
+  const DisturbanceEstimate plain = with_pair(1.5005, -0.05);
+  EXPECT_EQ(plain.intervals.size(), 2u) << plain.message;
+}
+
 }  // namespace
 }  // namespace alphainv
