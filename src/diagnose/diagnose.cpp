@@ -458,6 +458,13 @@ std::optional<AlphaModel> across_the_gap(const std::vector<AlphaFitPose>& poses,
 
 }  // namespace
 
+std::optional<AlphaModel> Reidentifier::across_gap(const Effects& e) const {
+  if (!usable_) return std::nullopt;
+  const std::optional<AlphaModel> m = across_the_gap(points(e), options_);
+  if (!m || !m->valid()) return std::nullopt;
+  return m;
+}
+
 std::vector<AlphaModel> Reidentifier::variants(const Effects& e, std::size_t runners_up,
                                                bool refined, bool across_gap) const {
   std::vector<AlphaModel> out;
@@ -1355,6 +1362,19 @@ Choice choose_winner(const CandidateFitter& fitter, const Reidentifier& reid, Di
       if (twin.ok) {
         named = beats(winner, twin, opt.significance);
         rd.none_at_winner_breakpoints = twin;
+      }
+    }
+  }
+  if (named && reid.usable()) {
+    // … and `none` with the α-model linear across the gap of the sine points' α (when there is
+    // one): a knee the grid put in it is the breakpoints' error, not the effect's.
+    const Effects& current = fitter.model().effects;
+    if (const std::optional<AlphaModel> gap = reid.across_gap(current)) {
+      CandidateScore twin = fitter.fit(EffectKind::kNone, current, fitter.prepared().unit_scales, gap,
+                                       false, true, nullptr);
+      if (twin.ok) {
+        named = beats(winner, twin, opt.significance);
+        rd.none_across_gap = twin;
       }
     }
   }

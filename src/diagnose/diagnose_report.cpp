@@ -194,6 +194,10 @@ std::string DiagnoseResult::full_report() const {
       s << candidate_line("none at the winner's breakpoints", *rd.none_at_winner_breakpoints,
                           "the winner must beat this too");
     }
+    if (rd.none_across_gap) {
+      s << candidate_line("none across the α gap", *rd.none_across_gap,
+                          "α-model linear across the widest gap of the sine points' α; the winner must beat this too");
+    }
     for (const PairScore& p : rd.pairs) {
       s << candidate_line(pair_label(p) + (p.named ? " *" : ""), p.fit,
                           pair_parameters_text(p) + (p.fit.message.empty() ? "" : "; " + p.fit.message));
@@ -248,6 +252,13 @@ std::string diagnose_report_markdown(const DiagnoseResult& r, const std::vector<
       s << "| none at the winner's breakpoints | " << fmt(t.score) << " | " << fmt(t.fold_scores[0])
         << " | " << fmt(t.fold_scores[1]) << " | " << fmt(t.error_after)
         << " | – | the winner must beat this too |\n";
+    }
+    if (rd.none_across_gap) {
+      const CandidateScore& t = *rd.none_across_gap;
+      s << "| none across the α gap | " << fmt(t.score) << " | " << fmt(t.fold_scores[0]) << " | "
+        << fmt(t.fold_scores[1]) << " | " << fmt(t.error_after)
+        << " | – | the α-model linear across the widest gap of the sine points' α; the winner must "
+           "beat this too |\n";
     }
     // The pair fallback (no single effect named while structure remained): each pair fitted
     // jointly, and `none` at the breakpoints of the best.

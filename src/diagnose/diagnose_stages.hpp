@@ -157,6 +157,10 @@ class Reidentifier {
   std::vector<AlphaModel> variants(const Effects& e, std::size_t runners_up, bool refined,
                                    bool across_gap = false) const;
 
+  /// The α-model with effects `e` linear in α across the widest gap of the sine points' α
+  /// (diagnose.cpp across_the_gap()); nullopt without such a gap or when it fails.
+  std::optional<AlphaModel> across_gap(const Effects& e) const;
+
  private:
   struct SineRun {
     const DiagnoseRun* run;
@@ -349,7 +353,8 @@ struct Choice {
 /// one with fewest parameters, a simpler one first refitted at the winner's breakpoints (it then
 /// replaces its entry in rd.candidates). Named when it is not `none`, not a delay below one tick,
 /// beats `none` in both folds and beats `none` refitted at its breakpoints
-/// (rd.none_at_winner_breakpoints).
+/// (rd.none_at_winner_breakpoints) and with the α-model linear across the gap of the sine
+/// points' α (rd.none_across_gap).
 Choice choose_winner(const CandidateFitter& fitter, const Reidentifier& reid, DiagnoseRound& rd);
 
 /// Settle: the winner fitted again on the whole fit runs (from its window fit; the error over all

@@ -188,6 +188,12 @@ struct DiagnoseRound {
   /// `none` refitted with the α-model at the winner's breakpoints (when the winner's α-model was
   /// re-identified): the winner is named only if it beats this too.
   std::optional<CandidateScore> none_at_winner_breakpoints;
+  /// `none` refitted with the α-model linear in α across the widest gap of the sine points' α
+  /// (when there is one, more than 4× between neighbours, and a winner): the winner is named only
+  /// if it beats this too. The grid's breakpoints may put a knee anywhere in such a gap, which
+  /// the square runs' ringing passes through, and a friction then makes up for the knee
+  /// (effect-free at 25°/115°: coulomb_friction named in 3 of 8 datasets).
+  std::optional<CandidateScore> none_across_gap;
   /// The pairs fitted jointly when no single candidate was named and structure remained (at most
   /// 3; empty when the fallback did not run): one named at most, then `named`, `named_second`.
   std::vector<PairScore> pairs;
