@@ -358,5 +358,40 @@ TEST(DiagnoseEndToEnd, AnEffectFreeModelIsRefittedAcrossTheGapOfItsSinePoints) {
   EXPECT_EQ(r.verdict.verdict, ResidualVerdict::kExplained) << r.verdict.text();
 }
 
+
+// The winner must also beat `none` with the α-model linear across the gap of the sine points'
+// α (DiagnoseRound::none_across_gap). Effect-free at 25°/115°, 5e-5 rad: Coulomb friction
+// (0.0043 V) made up for the grid's knee in the gap, scored 0.00091 against `none`'s 0.00195
+// and was named; `none` across the gap scores 0.00085.
+TEST(DiagnoseEndToEnd, AFrictionDoesNotWinByTheBreakpointsKneeInTheGap) {
+  constexpr std::uint64_t seed = 65;  // pose 65 % 9 = 2 (25°/115°)
+  ExperimentPlanOptions plan = paper_plan_options(seed);
+  plan.plant.effects.coulomb_v = 0.0;
+  plan.plant.measurement.noise_std_rad = 5e-5;
+  const auto poses = paper_sine_poses();
+  plan.sine_poses = {poses[seed % poses.size()]};
+  plan.square_poses = plan.sine_poses;
+  const GeneratedDataset g = generate_dataset(make_experiment_plan(plan));
+  DiagnoseOptions o;
+  o.max_effects = 1;
+  o.discover = false;
+  const DiagnoseResult r = diagnose_dataset(g.index, g.runs, o);
+  ASSERT_TRUE(r.ok) << r.message;
+  EXPECT_TRUE(r.effects_named.empty()) << r.full_report();
+  ASSERT_EQ(r.rounds.size(), 1u);
+  const DiagnoseRound& rd = r.rounds.front();
+  ASSERT_TRUE(rd.none_across_gap.has_value()) << r.full_report();
+  const auto none = std::find_if(rd.candidates.begin(), rd.candidates.end(),
+                                 [](const CandidateScore& c) { return c.effect == EffectKind::kNone; });
+  ASSERT_NE(none, rd.candidates.end());
+  // Across the gap `none` does better than the round's `none` …
+  EXPECT_LT(rd.none_across_gap->score, 0.8 * none->score) << r.full_report();
+  // … and no candidate is 10 % below it.
+  for (const CandidateScore& c : rd.candidates) {
+    if (c.ok && c.cross_validated && c.inactive.empty() && c.effect != EffectKind::kNone)
+      EXPECT_GT(c.score, 0.9 * rd.none_across_gap->score) << effect_name(c.effect);
+  }
+}
+
 }  // namespace
 }  // namespace alphainv
