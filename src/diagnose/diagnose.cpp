@@ -409,8 +409,9 @@ namespace {
 /// others at data α, the best of those sets by the points' score. The grid's sets fit the
 /// points alike and place a knee anywhere in such a gap (an effect-free dataset at one pose,
 /// α = 0.42, 2.6 | 36 … 103: breakpoints 3.3, 4.0 where the plant's are 2.2 and 25), yet the
-/// square runs' ringing passes through it; output error decides between them
-/// (best_variant()). nullopt without such a gap.
+/// square runs' ringing passes through it; output error decides between them (`none`'s
+/// refit in diagnose_round(), the winner's second twin in choose_winner()). nullopt without
+/// such a gap.
 std::optional<AlphaModel> across_the_gap(const std::vector<AlphaFitPose>& poses, const AlphaFitOptions& o) {
   constexpr double kGapRatio = 4.0;
   std::vector<double> a;
@@ -466,7 +467,7 @@ std::optional<AlphaModel> Reidentifier::across_gap(const Effects& e) const {
 }
 
 std::vector<AlphaModel> Reidentifier::variants(const Effects& e, std::size_t runners_up,
-                                               bool refined, bool across_gap) const {
+                                               bool refined) const {
   std::vector<AlphaModel> out;
   if (!usable_) return out;
   const std::vector<AlphaFitPose> poses = points(e);
@@ -484,9 +485,6 @@ std::vector<AlphaModel> Reidentifier::variants(const Effects& e, std::size_t run
   for (const auto& bp : r.runners_up) {
     const AlphaFitResult v = fit_alpha_model_at(poses, bp, o);
     if (v.ok && v.model.valid()) out.push_back(v.model);
-  }
-  if (across_gap) {
-    if (const std::optional<AlphaModel> g = across_the_gap(poses, o)) out.push_back(*g);
   }
   return out;
 }
@@ -578,17 +576,15 @@ void search_effect(EffectSearch& s, const std::vector<std::vector<double>>& star
 /// candidate is given the same choice; `none` also the refined winner (`refined`) and the model
 /// as given (`also`): the local refinement moves the breakpoints discontinuously with the data,
 /// and offered to a candidate it would let it win by a luckier α-model alone, so the benefit of
-/// the doubt goes to `none`. `across_gap`: also the model linear across the widest gap of the
-/// sine points' α (across_the_gap(); only for the refit of `none` when nothing is named,
-/// DiagnoseRound::none_refitted).
+/// the doubt goes to `none`.
 std::optional<AlphaModel> best_variant(const Reidentifier& reid, const Effects& e,
                                        const std::vector<DiagnoseRun>& runs,
                                        const std::vector<std::size_t>& fit_runs,
                                        const ModelScales& unit, const DiagnoseOptions& opt,
                                        bool refined,
                                        const std::optional<AlphaModel>& also = std::nullopt,
-                                       double* rms = nullptr, bool across_gap = false) {
-  std::vector<AlphaModel> models = reid.variants(e, kAlphaVariants, refined, across_gap);
+                                       double* rms = nullptr) {
+  std::vector<AlphaModel> models = reid.variants(e, kAlphaVariants, refined);
   if (also) models.push_back(*also);
   std::optional<AlphaModel> best;
   double best_rms = kInf;
@@ -1775,12 +1771,17 @@ DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const Prep
     }
     rd.error_after = rd.error_before;  // `none`: the model stays as it was
     // … unless diagnose() takes `none` refitted (DiagnoseRound::none_refitted), offered in
-    // `settled` when it does better over all runs: with the α-model variants and the one
-    // linear across the widest gap of the sine points' α, fitted and settled as a candidate.
+    // `settled` when it does better over all runs: with the best of `none`'s α-model variants
+    // (start_round()) and the one linear across the widest gap of the sine points' α, fitted
+    // and settled as a candidate.
     if (reid.usable()) {
-      const std::optional<AlphaModel> alpha =
-          best_variant(reid, model.effects, prepared.runs, prepared.fit_runs, prepared.unit_scales, opt,
-                       true, start.none_alpha, nullptr, true);
+      std::optional<AlphaModel> alpha = start.none_alpha;
+      if (const std::optional<AlphaModel> gap = reid.across_gap(model.effects)) {
+        const double r = pooled_rms(prepared.runs, run_rms_with(prepared.runs, prepared.fit_runs, model.effects,
+                                                                prepared.unit_scales, opt, gap),
+                                    prepared.fit_runs);
+        if (std::isfinite(r) && !(r >= start.none_unit_rms)) alpha = gap;
+      }
       if (alpha) {
         const CandidateScore c =
             fitter.fit(EffectKind::kNone, model.effects, prepared.unit_scales, alpha, false, false, nullptr);

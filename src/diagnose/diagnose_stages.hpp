@@ -152,10 +152,8 @@ class Reidentifier {
 
   /// The α-model with effects `e`: the grid winner (fit()), with `refined` also the winner refined
   /// off the grid (as fit_dataset() does), and the models at the next `runners_up` best
-  /// breakpoint sets of the grid search; with `across_gap` also the model linear in α across
-  /// the widest gap of the sine points' α (diagnose.cpp across_the_gap()), when there is one.
-  std::vector<AlphaModel> variants(const Effects& e, std::size_t runners_up, bool refined,
-                                   bool across_gap = false) const;
+  /// breakpoint sets of the grid search.
+  std::vector<AlphaModel> variants(const Effects& e, std::size_t runners_up, bool refined) const;
 
   /// The α-model with effects `e` linear in α across the widest gap of the sine points' α
   /// (diagnose.cpp across_the_gap()); nullopt without such a gap or when it fails.

@@ -338,14 +338,8 @@ TEST(DiagnoseReal, EmpsNamesCoulombAndTheReferenceOffsetAndNoPassenger) {
 // passes through; the grid placed two breakpoints just above 2.6 where the plant's are 2.2
 // and 25, and the model as fitted missed the square run's ringing by 20× the floor.
 TEST(DiagnoseEndToEnd, AnEffectFreeModelIsRefittedAcrossTheGapOfItsSinePoints) {
-  constexpr std::uint64_t seed = 29;  // pose 29 % 9 = 2 (25°/115°)
-  ExperimentPlanOptions plan = paper_plan_options(seed);
-  plan.plant.effects.coulomb_v = 0.0;
-  plan.plant.measurement.noise_std_rad = 2e-4;
-  const auto poses = paper_sine_poses();
-  plan.sine_poses = {poses[seed % poses.size()]};
-  plan.square_poses = plan.sine_poses;
-  const GeneratedDataset g = generate_dataset(make_experiment_plan(plan));
+  // seed 29: pose 29 % 9 = 2 (25°/115°)
+  const GeneratedDataset g = one_pose_dataset(Effects{}, 29, 2e-4);
   DiagnoseOptions o;
   o.discover = false;
   const DiagnoseResult r = diagnose_dataset(g.index, g.runs, o);
@@ -364,14 +358,8 @@ TEST(DiagnoseEndToEnd, AnEffectFreeModelIsRefittedAcrossTheGapOfItsSinePoints) {
 // (0.0043 V) made up for the grid's knee in the gap, scored 0.00091 against `none`'s 0.00195
 // and was named; `none` across the gap scores 0.00085.
 TEST(DiagnoseEndToEnd, AFrictionDoesNotWinByTheBreakpointsKneeInTheGap) {
-  constexpr std::uint64_t seed = 65;  // pose 65 % 9 = 2 (25°/115°)
-  ExperimentPlanOptions plan = paper_plan_options(seed);
-  plan.plant.effects.coulomb_v = 0.0;
-  plan.plant.measurement.noise_std_rad = 5e-5;
-  const auto poses = paper_sine_poses();
-  plan.sine_poses = {poses[seed % poses.size()]};
-  plan.square_poses = plan.sine_poses;
-  const GeneratedDataset g = generate_dataset(make_experiment_plan(plan));
+  // seed 65: pose 65 % 9 = 2 (25°/115°)
+  const GeneratedDataset g = one_pose_dataset(Effects{}, 65, 5e-5);
   DiagnoseOptions o;
   o.max_effects = 1;
   o.discover = false;
@@ -388,8 +376,9 @@ TEST(DiagnoseEndToEnd, AFrictionDoesNotWinByTheBreakpointsKneeInTheGap) {
   EXPECT_LT(rd.none_across_gap->score, 0.8 * none->score) << r.full_report();
   // … and no candidate is 10 % below it.
   for (const CandidateScore& c : rd.candidates) {
-    if (c.ok && c.cross_validated && c.inactive.empty() && c.effect != EffectKind::kNone)
+    if (c.ok && c.cross_validated && c.inactive.empty() && c.effect != EffectKind::kNone) {
       EXPECT_GT(c.score, 0.9 * rd.none_across_gap->score) << effect_name(c.effect);
+    }
   }
 }
 
