@@ -1627,6 +1627,21 @@ std::optional<std::size_t> try_pairs(const CandidateFitter& fitter, const Reiden
       }
     }
   }
+  if (reid.usable()) {
+    // … and, as a single winner, `none` with the α-model linear across the gap of the sine
+    // points' α (choose_winner()): two small effects can carry the misfit of a knee in the gap.
+    if (!rd.none_across_gap) {
+      if (const std::optional<AlphaModel> gap = reid.across_gap(model.effects)) {
+        CandidateScore twin = fitter.fit(EffectKind::kNone, model.effects, prepared.unit_scales, gap,
+                                         false, true, nullptr);
+        if (twin.ok) rd.none_across_gap = twin;
+      }
+    }
+    if (rd.none_across_gap && !beats(f, *rd.none_across_gap, opt.significance)) {
+      f.message = "not below (1 − significance) × the score of none across the α gap";
+      return std::nullopt;
+    }
+  }
   const CandidateScore s = settle_winner(fitter, f, {ps.kinds[0], ps.kinds[1]});
   if (!improves_all_runs(s, rd.error_before, opt.significance)) {
     f.message = "settled on the whole fit runs, the RMS over all runs " + num(s.error_after, "%.4g") +
@@ -2016,22 +2031,56 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
     }
     if (named == EffectKind::kNone) {
       DiagnoseRound& last = res.rounds.back();
-      if (settled.ok && settled.effect == EffectKind::kNone && settled.error_after < last.error_before) {
-        // The model's own, refitted (DiagnoseRound::none_refitted), only when it explains the
-        // data to the noise floor and the model as it came does not.
-        auto explained = [&](const Effects& e, const ModelScales& sc, const std::optional<AlphaModel>& a) {
-          const auto sims = simulate_diagnosed(runs_in, e, sc, opt.simulation, opt.threads, a);
-          return judge_residual(residual_series(runs_in, sims), res.noise_floor).verdict ==
-                 ResidualVerdict::kExplained;
-        };
-        if (explained(settled.effects, settled.scales, settled.alpha) &&
-            !explained(model.effects, model.scales, model.alpha)) {
-          last.none_refitted = true;
-          last.error_after = settled.error_after;
-          model.effects = settled.effects;
-          model.scales = settled.scales;
-          model.alpha = settled.alpha;
+      // The model's own, refitted (DiagnoseRound::none_refitted), only when it explains the data
+      // to the noise floor and the model as it came does not. Two refits: `settled` (coefficient
+      // factors fitted by output error), and the α-model linear across the gap of the sine
+      // points' α as the sine points give it (unit factors): the factors' fit weighs the runs'
+      // transients, whose error near resonance can outweigh every sine run's gain and phase.
+      std::vector<CandidateScore> refits;
+      std::vector<std::string> how;
+      if (settled.ok && settled.effect == EffectKind::kNone) {
+        refits.push_back(settled);
+        how.push_back("its α-model re-identified from the sine runs, the coefficient factors fitted by output error");
+      }
+      if (reid.usable()) {
+        if (std::optional<AlphaModel> gap = reid.across_gap(model.effects)) {
+          CandidateScore c;
+          c.ok = true;
+          c.effects = model.effects;
+          c.scales = prepared.unit_scales;
+          c.alpha = std::move(gap);
+          refits.push_back(std::move(c));
+          how.push_back("the α-model linear across the widest gap of the sine points' α, as the sine points give it "
+                        "(unit coefficient factors)");
         }
+      }
+      bool as_came_explained = false, as_came_judged = false;
+      for (std::size_t k = 0; k < refits.size(); ++k) {
+        CandidateScore& c = refits[k];
+        const auto sims = simulate_diagnosed(runs_in, c.effects, c.scales, opt.simulation, opt.threads, c.alpha);
+        const std::vector<ResidualSeries> series = residual_series(runs_in, sims);
+        double ss = 0.0, n = 0.0;
+        for (const ResidualSeries& r : series) {
+          for (double e : r.residual) ss += e * e, n += 1.0;
+        }
+        c.error_after = n > 0.0 ? std::sqrt(ss / n) : kInf;
+        if (!(c.error_after < last.error_before)) continue;
+        if (judge_residual(series, res.noise_floor).verdict != ResidualVerdict::kExplained) continue;
+        if (!as_came_judged) {
+          const auto s0 = simulate_diagnosed(runs_in, model.effects, model.scales, opt.simulation,
+                                             opt.threads, model.alpha);
+          as_came_explained =
+              judge_residual(residual_series(runs_in, s0), res.noise_floor).verdict == ResidualVerdict::kExplained;
+          as_came_judged = true;
+        }
+        if (as_came_explained) break;
+        last.none_refitted = true;
+        last.none_refit_how = how[k];
+        last.error_after = c.error_after;
+        model.effects = c.effects;
+        model.scales = c.scales;
+        model.alpha = c.alpha;
+        break;
       }
       res.termination = DiagnoseTermination::kNoneNamed;
       break;

@@ -280,6 +280,12 @@ std::string diagnose_report_markdown(const DiagnoseResult& r, const std::vector<
            "were fitted jointly (two effects can mask each other); a pair is named when it passes "
            "the tests of a single effect.\n";
     }
+    if (rd.none_refitted) {
+      s << "\nNothing was named, but the model's own refitted (" << rd.none_refit_how
+        << ") explains the data to the noise floor where the model as it came did not: the "
+           "diagnosis goes on with it (RMS error "
+        << fmt(rd.error_before) << " → " << fmt(rd.error_after) << ").\n";
+    }
     s << "\n";
   }
   s << disturbance_markdown(r.disturbance);

@@ -200,7 +200,8 @@ struct DiagnoseRound {
   double error_before = std::numeric_limits<double>::quiet_NaN();
   double error_after = std::numeric_limits<double>::quiet_NaN();
   /// Nothing named, and `none` (the model's own α-model re-identified, its coefficient factors
-  /// refitted by output error, settled on the whole fit runs) explains the data to the noise
+  /// refitted by output error, settled on the whole fit runs; or the α-model linear across the
+  /// widest gap of the sine points' α, with unit factors, as the sine points give it) explains the data to the noise
   /// floor where the model as it came does not: the model goes on with it (error_after is its
   /// RMS). The grid's α-model can place its breakpoints anywhere in a gap of the sine points'
   /// α that the other runs pass through (an effect-free one-pose dataset: 0.0059 as given,
@@ -210,6 +211,8 @@ struct DiagnoseRound {
   /// explained, the refit may trade the sine runs' gains and phases (each exact in the sine
   /// points) for the other runs'.
   bool none_refitted = false;
+  /// With none_refitted: which refit, in words (for the report).
+  std::string none_refit_how;
 };
 
 /// The external_disturbance stage (before the rounds, when the candidates include it): a torque
