@@ -129,3 +129,7 @@ def test_diagnose_names_a_hidden_offset_torque():
     assert d.error_after < 0.5 * d.error_before
     assert d.model.effects.offset_v == d.effects.offset_v
     assert d.to_dict()["figures"]["effect"] == "offset_torque" and "offset_torque" in d.report_markdown
+    first = d.rounds[0]
+    assert first["named"] == "offset_torque"
+    # a named round keeps its model: not `none` refitted
+    assert first["none_refitted"] is False and first["none_refit_how"] == ""
