@@ -1609,6 +1609,18 @@ std::optional<std::size_t> try_pairs(const CandidateFitter& fitter, const Reiden
       return std::nullopt;
     }
   }
+  // A single effect of the round that scores lower (cross-validated, active) explains as much
+  // with fewer parameters: the pair's gain is not that of two effects masking each other (a
+  // 1.7 ms delay fitted at 0.33 ms, below one tick, scored 0.00187; the pair saturation +
+  // deadzone 0.00229 was then named, saturation alone).
+  for (const CandidateScore& c : rd.candidates) {
+    if (c.ok && c.cross_validated && c.inactive.empty() && c.effect != EffectKind::kNone &&
+        c.score < f.score) {
+      f.message = std::string("not below the score of the single ") + std::string(effect_name(c.effect)) +
+                  " (" + num(c.score, "%.4g") + "): not two effects masking each other";
+      return std::nullopt;
+    }
+  }
   if (!beats(f, none_score, opt.significance)) {
     f.message = "not below (1 − significance) × the score of none in both folds";
     return std::nullopt;

@@ -410,4 +410,32 @@ TEST(DiagnoseEndToEnd, NoPairWinsByTheKneeInTheGapAndNoneIsRefittedAsTheSinePoin
   EXPECT_EQ(r.verdict.verdict, ResidualVerdict::kExplained) << r.verdict.text();
 }
 
+// A pair must score below every active, cross-validated single of its round. A 1.7 ms delay at
+// 2e-4 rad: its fit ended at 0.33 ms, below one tick, so it was not named although it scored
+// best; the pair fallback then named saturation (from saturation + deadzone), an effect the
+// plant does not have.
+TEST(DiagnoseEndToEnd, NoPairIsNamedWhenASingleScoresLower) {
+  Effects hidden;
+  hidden.delay_s = 0.0016978;
+  // seed 41: pose 41 % 9 = 5 (45°/115°)
+  const GeneratedDataset g = one_pose_dataset(hidden, 41, 2e-4);
+  DiagnoseOptions o;
+  o.discover = false;
+  o.threads = 1;
+  const DiagnoseResult r = diagnose_dataset(g.index, g.runs, o);
+  ASSERT_TRUE(r.ok) << r.message;
+  for (EffectKind k : r.effects_named) EXPECT_EQ(k, EffectKind::kTimeDelay) << r.full_report();
+  ASSERT_FALSE(r.rounds.empty());
+  const DiagnoseRound& first = r.rounds.front();
+  double best_single = std::numeric_limits<double>::infinity();
+  for (const CandidateScore& c : first.candidates) {
+    if (c.ok && c.cross_validated && c.inactive.empty() && c.effect != EffectKind::kNone)
+      best_single = std::min(best_single, c.score);
+  }
+  for (const PairScore& p : first.pairs) {
+    if (p.named) EXPECT_LT(p.fit.score, best_single) << r.full_report();
+  }
+  if (r.effects_named.empty()) EXPECT_EQ(r.verdict.verdict, ResidualVerdict::kStructureRemains);
+}
+
 }  // namespace alphainv
