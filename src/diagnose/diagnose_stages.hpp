@@ -315,10 +315,14 @@ void try_refinements(const CandidateFitter& fitter, const RoundStart& start,
 
 /// `c` is below (1 − significance) × `ref` in its score and in both folds.
 bool beats(const CandidateScore& c, const CandidateScore& ref, double significance);
+/// The winner against `none` refitted at its breakpoints (choose_winner()): beats(), or not
+/// worse in both folds and the RMS over all runs below (1 − significance) × the twin's.
+bool beats_twin(const CandidateScore& c, const CandidateScore& twin, double significance);
 
 /// `c` is a time delay shorter than one controller tick of the digital loop (`simulation`): below
 /// what the loop resolves, its sample-and-hold and the α filter's timing already differ from the
-/// plant's by as much.
+/// plant's by as much. Or at one tick: the fits' lower bound for a delay (make_problem()), where
+/// a fit that wanted a shorter one stops.
 bool delay_below_one_tick(const CandidateScore& c, const SimulationOptions& simulation);
 
 /// Relative level below which a fitted amplitude (gravity, deadzone half-width, offset, Coulomb,

@@ -410,11 +410,13 @@ TEST(DiagnoseEndToEnd, NoPairWinsByTheKneeInTheGapAndNoneIsRefittedAsTheSinePoin
   EXPECT_EQ(r.verdict.verdict, ResidualVerdict::kExplained) << r.verdict.text();
 }
 
-// A pair must score below every active, cross-validated single of its round. A 1.7 ms delay at
-// 2e-4 rad: its fit ended at 0.33 ms, below one tick, so it was not named although it scored
-// best; the pair fallback then named saturation (from saturation + deadzone), an effect the
-// plant does not have.
-TEST(DiagnoseEndToEnd, NoPairIsNamedWhenASingleScoresLower) {
+// A 1.7 ms command delay at 2e-4 rad (pose 45°/115°). The windows' fit started from the search's
+// 1.5 ms and ended at 0.33 ms, below one tick (the coefficient factors took the delay's phase in
+// the sine runs' steady state), so it was not named although it scored best; the pair fallback
+// then named a saturation the plant does not have. Now the fits keep a delay to a tick or more
+// (make_problem()), and the winner beats `none` at its breakpoints over all runs (the runs'
+// starts show the delay: RMS 0.0018 against 0.0029) while not worse in either fold.
+TEST(DiagnoseEndToEnd, ADelayOfTwoTicksIsNamedNotASaturation) {
   Effects hidden;
   hidden.delay_s = 0.0016978;
   // seed 41: pose 41 % 9 = 5 (45°/115°)
@@ -424,18 +426,12 @@ TEST(DiagnoseEndToEnd, NoPairIsNamedWhenASingleScoresLower) {
   o.threads = 1;
   const DiagnoseResult r = diagnose_dataset(g.index, g.runs, o);
   ASSERT_TRUE(r.ok) << r.message;
-  for (EffectKind k : r.effects_named) EXPECT_EQ(k, EffectKind::kTimeDelay) << r.full_report();
-  ASSERT_FALSE(r.rounds.empty());
-  const DiagnoseRound& first = r.rounds.front();
-  double best_single = std::numeric_limits<double>::infinity();
-  for (const CandidateScore& c : first.candidates) {
-    if (c.ok && c.cross_validated && c.inactive.empty() && c.effect != EffectKind::kNone)
-      best_single = std::min(best_single, c.score);
-  }
-  for (const PairScore& p : first.pairs) {
-    if (p.named) EXPECT_LT(p.fit.score, best_single) << r.full_report();
-  }
-  if (r.effects_named.empty()) EXPECT_EQ(r.verdict.verdict, ResidualVerdict::kStructureRemains);
+  ASSERT_FALSE(r.effects_named.empty()) << r.full_report();
+  EXPECT_EQ(r.effects_named.front(), EffectKind::kTimeDelay) << r.full_report();
+  for (EffectKind k : r.effects_named) EXPECT_NE(k, EffectKind::kSaturation) << r.full_report();
+  EXPECT_GE(r.effects.delay_s, 0.001);
+  EXPECT_LE(r.effects.delay_s, 0.0025);
+  EXPECT_LT(r.error_after, 0.1 * r.error_before);
 }
 
 }  // namespace alphainv
