@@ -1338,6 +1338,24 @@ std::size_t parsimonious(const CandidateFitter& fitter, const Reidentifier& reid
   return chosen;  // not reached: the refitted one came from the candidates
 }
 
+/// `none` refitted with the α-model linear across the widest gap of the sine points' α
+/// (Reidentifier::across_gap(), with the round's effects), fitted and cross-validated once per
+/// round and kept in rd.none_across_gap: the twin a single winner (choose_winner()) and a pair
+/// (try_pairs()) must both beat. nullptr without re-identification, without such a gap, or
+/// when its fit fails.
+const CandidateScore* none_across_gap(const CandidateFitter& fitter, const Reidentifier& reid,
+                                      DiagnoseRound& rd) {
+  if (!rd.none_across_gap && reid.usable()) {
+    const Effects& current = fitter.model().effects;
+    if (const std::optional<AlphaModel> gap = reid.across_gap(current)) {
+      CandidateScore twin = fitter.fit(EffectKind::kNone, current, fitter.prepared().unit_scales, gap,
+                                       false, true, nullptr);
+      if (twin.ok) rd.none_across_gap = std::move(twin);
+    }
+  }
+  return rd.none_across_gap ? &*rd.none_across_gap : nullptr;
+}
+
 }  // namespace
 
 Choice choose_winner(const CandidateFitter& fitter, const Reidentifier& reid, DiagnoseRound& rd) {
@@ -1381,18 +1399,11 @@ Choice choose_winner(const CandidateFitter& fitter, const Reidentifier& reid, Di
       }
     }
   }
-  if (named && reid.usable()) {
+  if (named) {
     // … and `none` with the α-model linear across the gap of the sine points' α (when there is
     // one): a knee the grid put in it is the breakpoints' error, not the effect's.
-    const Effects& current = fitter.model().effects;
-    if (const std::optional<AlphaModel> gap = reid.across_gap(current)) {
-      CandidateScore twin = fitter.fit(EffectKind::kNone, current, fitter.prepared().unit_scales, gap,
-                                       false, true, nullptr);
-      if (twin.ok) {
-        named = beats(winner, twin, opt.significance);
-        rd.none_across_gap = twin;
-      }
-    }
+    if (const CandidateScore* twin = none_across_gap(fitter, reid, rd))
+      named = beats(winner, *twin, opt.significance);
   }
   choice.named = named;
   return choice;
@@ -1647,20 +1658,12 @@ std::optional<std::size_t> try_pairs(const CandidateFitter& fitter, const Reiden
       }
     }
   }
-  if (reid.usable()) {
-    // … and, as a single winner, `none` with the α-model linear across the gap of the sine
-    // points' α (choose_winner()): two small effects can carry the misfit of a knee in the gap.
-    if (!rd.none_across_gap) {
-      if (const std::optional<AlphaModel> gap = reid.across_gap(model.effects)) {
-        CandidateScore twin = fitter.fit(EffectKind::kNone, model.effects, prepared.unit_scales, gap,
-                                         false, true, nullptr);
-        if (twin.ok) rd.none_across_gap = twin;
-      }
-    }
-    if (rd.none_across_gap && !beats(f, *rd.none_across_gap, opt.significance)) {
-      f.message = "not below (1 − significance) × the score of none across the α gap";
-      return std::nullopt;
-    }
+  // … and, as a single winner, `none` with the α-model linear across the gap of the sine
+  // points' α: two small effects can carry the misfit of a knee in the gap.
+  if (const CandidateScore* twin = none_across_gap(fitter, reid, rd);
+      twin != nullptr && !beats(f, *twin, opt.significance)) {
+    f.message = "not below (1 − significance) × the score of none across the α gap";
+    return std::nullopt;
   }
   const CandidateScore s = settle_winner(fitter, f, {ps.kinds[0], ps.kinds[1]});
   if (!improves_all_runs(s, rd.error_before, opt.significance)) {
@@ -2052,31 +2055,28 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
     if (named == EffectKind::kNone) {
       DiagnoseRound& last = res.rounds.back();
       // The model's own, refitted (DiagnoseRound::none_refitted), only when it explains the data
-      // to the noise floor and the model as it came does not. Two refits: `settled` (coefficient
-      // factors fitted by output error), and the α-model linear across the gap of the sine
-      // points' α as the sine points give it (unit factors): the factors' fit weighs the runs'
-      // transients, whose error near resonance can outweigh every sine run's gain and phase.
-      std::vector<CandidateScore> refits;
-      std::vector<std::string> how;
-      if (settled.ok && settled.effect == EffectKind::kNone) {
-        refits.push_back(settled);
-        how.push_back("its α-model re-identified from the sine runs, the coefficient factors fitted by output error");
-      }
-      if (reid.usable()) {
+      // to the noise floor and the model as it came (verdict_now) does not. Two refits, the
+      // first explained taken: `settled` (coefficient factors fitted by output error), and the
+      // α-model linear across the gap of the sine points' α as the sine points give it (unit
+      // factors): the factors' fit weighs the runs' transients, whose error near resonance can
+      // outweigh every sine run's gain and phase.
+      std::vector<std::pair<CandidateScore, std::string>> refits;
+      if (verdict_now != ResidualVerdict::kExplained) {
+        if (settled.ok && settled.effect == EffectKind::kNone) {
+          refits.emplace_back(settled, "its α-model re-identified from the sine runs, the coefficient "
+                                       "factors fitted by output error");
+        }
         if (std::optional<AlphaModel> gap = reid.across_gap(model.effects)) {
           CandidateScore c;
           c.ok = true;
           c.effects = model.effects;
           c.scales = prepared.unit_scales;
           c.alpha = std::move(gap);
-          refits.push_back(std::move(c));
-          how.push_back("the α-model linear across the widest gap of the sine points' α, as the sine points give it "
-                        "(unit coefficient factors)");
+          refits.emplace_back(std::move(c), "the α-model linear across the widest gap of the sine points' α, "
+                                            "as the sine points give it (unit coefficient factors)");
         }
       }
-      bool as_came_explained = false, as_came_judged = false;
-      for (std::size_t k = 0; k < refits.size(); ++k) {
-        CandidateScore& c = refits[k];
+      for (auto& [c, how] : refits) {
         const auto sims = simulate_diagnosed(runs_in, c.effects, c.scales, opt.simulation, opt.threads, c.alpha);
         const std::vector<ResidualSeries> series = residual_series(runs_in, sims);
         double ss = 0.0, n = 0.0;
@@ -2086,16 +2086,8 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
         c.error_after = n > 0.0 ? std::sqrt(ss / n) : kInf;
         if (!(c.error_after < last.error_before)) continue;
         if (judge_residual(series, res.noise_floor).verdict != ResidualVerdict::kExplained) continue;
-        if (!as_came_judged) {
-          const auto s0 = simulate_diagnosed(runs_in, model.effects, model.scales, opt.simulation,
-                                             opt.threads, model.alpha);
-          as_came_explained =
-              judge_residual(residual_series(runs_in, s0), res.noise_floor).verdict == ResidualVerdict::kExplained;
-          as_came_judged = true;
-        }
-        if (as_came_explained) break;
         last.none_refitted = true;
-        last.none_refit_how = how[k];
+        last.none_refit_how = how;
         last.error_after = c.error_after;
         model.effects = c.effects;
         model.scales = c.scales;

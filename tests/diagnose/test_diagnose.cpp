@@ -382,7 +382,6 @@ TEST(DiagnoseEndToEnd, AFrictionDoesNotWinByTheBreakpointsKneeInTheGap) {
   }
 }
 
-}  // namespace
 // Effect-free at 25°/115°, 5e-5 rad (seed 47): the grid's knee in the gap of the sine points' α
 // left the square run's ringing and the sine runs' gains and phases (median 17× the floor)
 // unexplained. Two small effects fitted together (Coulomb 0.003 V + a gravity spring) made up
@@ -434,4 +433,5 @@ TEST(DiagnoseEndToEnd, ADelayOfTwoTicksIsNamedNotASaturation) {
   EXPECT_LT(r.error_after, 0.1 * r.error_before);
 }
 
+}  // namespace
 }  // namespace alphainv
