@@ -1,5 +1,6 @@
 #include "diagnose_command.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -66,11 +67,18 @@ nlohmann::json result_json(const DiagnoseResult& res) {
                      {"parameters", parameters_json(res.effects, EffectKind::kExternalDisturbance)},
                      {"error_after", num(res.disturbance.error_after)}});
   }
-  for (const DiagnoseRound& rd : res.rounds) {
+  for (std::size_t r = 0; r < res.rounds.size(); ++r) {
+    const DiagnoseRound& rd = res.rounds[r];
     for (EffectKind k : {rd.named, rd.named_second}) {  // (a pair: both, the round's error after)
       if (k == EffectKind::kNone) continue;
-      named.push_back({{"effect", effect_name(k)}, {"parameters", parameters_json(res.effects, k)},
-                       {"error_after", num(rd.error_after)}});
+      // (an effect a later round's generalisation took in is in that one's entry)
+      if (std::any_of(res.rounds.begin() + static_cast<std::ptrdiff_t>(r) + 1, res.rounds.end(),
+                      [&](const DiagnoseRound& later) { return later.took_in == k; }))
+        continue;
+      nlohmann::json entry = {{"effect", effect_name(k)}, {"parameters", parameters_json(res.effects, k)},
+                              {"error_after", num(rd.error_after)}};
+      if (k == rd.named && rd.took_in != EffectKind::kNone) entry["took_in"] = effect_name(rd.took_in);
+      named.push_back(entry);
     }
   }
   // The discovered term (tried when structure remained after the named effects): its terms,

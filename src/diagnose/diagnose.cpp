@@ -801,9 +801,9 @@ RoundModel initial_model(const std::vector<DiagnoseRun>& runs_in, const Prepared
   // All runs share the effects of the first run's model as the starting point.
   m.effects = runs_in.front().model.effects;
   m.scales = prepared.unit_scales;
-  // The Coulomb term's smoothing: 1 % of the RMS velocity (a sharp switch on the data's scale).
-  // (and of the other friction terms, each its own)
-  const double eps = 0.01 * prepared.scales.theta_dot_rms;
+  // The Coulomb term's smoothing (and the other friction terms', each its own): a share of the
+  // RMS velocity (kFrictionSmoothingShareOfRmsVelocity).
+  const double eps = kFrictionSmoothingShareOfRmsVelocity * prepared.scales.theta_dot_rms;
   if (!effect_active(m.effects, EffectKind::kCoulombFriction)) m.effects.coulomb_smoothing_rad_s = eps;
   if (!effect_active(m.effects, EffectKind::kStribeckFriction)) m.effects.stribeck_smoothing_rad_s = eps;
   if (!effect_active(m.effects, EffectKind::kAsymmetricFriction)) m.effects.asymmetric_smoothing_rad_s = eps;
@@ -1002,17 +1002,19 @@ std::vector<ParamBlock> CandidateFitter::blocks_with(const std::vector<EffectKin
 CandidateScore CandidateFitter::fit(EffectKind kind, const Effects& e,
                                     const ModelScales& start_scales,
                                     const std::optional<AlphaModel>& cand_alpha, bool searched,
-                                    bool cv, PendingCrossValidation* later) const {
+                                    bool cv, PendingCrossValidation* later,
+                                    const std::vector<Effects>& other_starts) const {
   return fit_joint(kind == EffectKind::kNone ? std::vector<EffectKind>{}
                                              : std::vector<EffectKind>{kind},
-                   e, start_scales, cand_alpha, searched, cv, later);
+                   e, start_scales, cand_alpha, searched, cv, later, other_starts);
 }
 
 CandidateScore CandidateFitter::fit_joint(const std::vector<EffectKind>& kinds, const Effects& e,
                                           const ModelScales& start_scales,
                                           const std::optional<AlphaModel>& cand_alpha,
                                           bool searched, bool cv,
-                                          PendingCrossValidation* later) const {
+                                          PendingCrossValidation* later,
+                                          const std::vector<Effects>& other_starts) const {
   const DiagnoseOptions& opt = options_;
   const ModelScales& ms = model_.scales;
   CandidateScore cand;
@@ -1042,6 +1044,19 @@ CandidateScore CandidateFitter::fit_joint(const std::vector<EffectKind>& kinds, 
       if (std::abs(p0[at] - pr.parameters[at].initial) > 1e-3 * std::abs(p0[at]))
         oo.extra_starts.push_back(p0);
     }
+  }
+  for (const Effects& o : other_starts) {  // the new effects' parameters from `o`
+    std::vector<double> p0;
+    for (const auto& par : pr.parameters) p0.push_back(par.initial);
+    std::size_t at = start_scales.c.size() + start_scales.beta.size();
+    for (std::size_t b = 0; b < blocks.size(); ++b) {
+      const bool is_new = b + kinds.size() >= blocks.size();  // the new kinds' blocks come last
+      for (const auto& par : blocks[b].params) {
+        if (is_new) p0[at] = std::clamp(o.*(par.member), pr.parameters[at].lower, pr.parameters[at].upper);
+        ++at;
+      }
+    }
+    oo.extra_starts.push_back(std::move(p0));
   }
   const OutputErrorResult full = fit_output_error(pr, oo);
   if (!full.ok) {
@@ -1187,7 +1202,20 @@ void try_refinements(const CandidateFitter& fitter, const RoundStart& start,
       const bool parent = spec.generalises(it->effect) && it->ok && it->cross_validated;
       if (parent && (p == candidates.end() || it->score < p->score)) p = it;
     }
-    if (p == candidates.end()) continue;  // no parent among the two best
+    // A parent named in an earlier round (its form chosen before the other effects were in the
+    // model): the generalisation is tried on top of it, from `none`'s fit, which holds it; it
+    // must then beat `none` as any candidate (choose_winner()).
+    bool parent_named = false;
+    if (p == candidates.end()) {
+      for (auto it = candidates.begin(); it != candidates.end(); ++it) {
+        if (it->effect == EffectKind::kNone && it->ok) p = it;
+      }
+      const auto& named = fitter.model().named;
+      parent_named = p != candidates.end() &&
+                     std::any_of(named.begin(), named.end(),
+                                 [&](EffectKind k) { return spec.generalises(k); });
+      if (!parent_named) continue;  // no parent among the two best
+    }
     const EffectKind parent = p->effect;
     // Started from its equation-error start with the parent's α-model and coefficient factors
     // (no search with re-identification: the parent's has found the valley; it would cost 3× a
@@ -1195,8 +1223,25 @@ void try_refinements(const CandidateFitter& fitter, const RoundStart& start,
     (void)reid;
     Effects e = fitter.model().effects;
     equation_error_start(kind, start.torque_residual, fitter.prepared().scales, e);
-    CandidateScore c = fitter.fit(kind, e, p->scales, p->alpha, true, true, nullptr);
-    if (c.ok && c.cross_validated && !beats(c, *p, 0.5 * opt.significance)) {
+    // … and from the parent's fit in this form (EffectSpec::take_in), its shape parameters (v_s)
+    // from equation error: it starts where the simpler form ended, so that a valley of its
+    // extra parameters is not all it can find (asymmetric levels 0.027/0.012 V scored 1.3× the
+    // Coulomb friction they contain, on a gravity + asymmetric friction dataset).
+    std::vector<Effects> from_equation_error;
+    if (spec.take_in != nullptr && !parent_named) {
+      const double Effects::*level = effect_spec(parent).parameters[0].member;
+      Effects t = e;
+      for (const auto& par : effect_parameters(kind)) {
+        if (par.check != ParameterCheck::kPositiveIfActive) t.*(par.member) = 0.0;
+      }
+      if (spec.take_in(parent, p->effects.*level - fitter.model().effects.*level, t)) {
+        from_equation_error.push_back(e);
+        e = t;
+      }
+    }
+    CandidateScore c =
+        fitter.fit(kind, e, p->scales, p->alpha, true, true, nullptr, from_equation_error);
+    if (!parent_named && c.ok && c.cross_validated && !beats(c, *p, 0.5 * opt.significance)) {
       // Not better than the simpler form by a margin in both folds: its extra parameters have
       // not earned their place (it cannot be chosen over it).
       c.message = std::string("not below (1 − significance/2) × the score of ") +
@@ -1205,6 +1250,20 @@ void try_refinements(const CandidateFitter& fitter, const RoundStart& start,
     }
     candidates[at] = std::move(c);
   }
+}
+
+std::optional<EffectKind> take_in_parent(EffectKind kind, Effects& e, const std::vector<EffectKind>& named) {
+  const EffectSpec& spec = effect_spec(kind);
+  if (spec.take_in == nullptr) return std::nullopt;
+  for (EffectKind x : named) {
+    if (!spec.generalises(x)) continue;
+    Effects t = e;
+    if (!spec.take_in(x, e.*(effect_spec(x).parameters[0].member), t)) continue;
+    for (const auto& par : effect_parameters(x)) t.*(par.member) = 0.0;
+    e = t;
+    return x;
+  }
+  return std::nullopt;
 }
 
 bool beats(const CandidateScore& c, const CandidateScore& ref, double significance) {
@@ -1747,7 +1806,7 @@ DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const Prep
                      (spec.also_refines != EffectKind::kNone
                           ? std::string(" or ") + effect_name(spec.also_refines)
                           : std::string()) +
-                     " is among the two best";
+                     " is among the two best or named";
       refinements.push_back(rd.candidates.size());
       rd.candidates.push_back(cand);
       continue;
@@ -2106,6 +2165,13 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
       model.named.push_back(k);
       res.effects_named.push_back(k);
       ++named_so_far;
+      // A generalisation named on top of the effect it generalises (tried so from the round
+      // after that one was named: try_refinements()) takes it in: one term of its form.
+      if (const auto x = diagnose_detail::take_in_parent(k, model.effects, model.named)) {
+        model.named.erase(std::find(model.named.begin(), model.named.end(), *x));
+        res.effects_named.erase(std::find(res.effects_named.begin(), res.effects_named.end(), *x));
+        res.rounds.back().took_in = *x;
+      }
     }
     if (named_so_far < opt.max_effects) {
       // Another round only while structure remains.

@@ -116,7 +116,8 @@ struct RoundModel {
 };
 
 /// The first round's model: the first run's effects (all runs share them), with the Coulomb
-/// smoothing ε at 1 % of the RMS velocity when no Coulomb term is on; unit factors.
+/// smoothing ε at kFrictionSmoothingShareOfRmsVelocity of the RMS velocity when no Coulomb
+/// term is on; unit factors.
 RoundModel initial_model(const std::vector<DiagnoseRun>& runs_in, const PreparedRuns& prepared);
 
 /// Locate: where the residual θ − θ_sim of `sims` (one per run; empty for a failed run)
@@ -238,21 +239,26 @@ class CandidateFitter {
 
   /// Fit: the candidate `kind` (effects `e`, factors from `start_scales`, α-model `alpha`) fitted
   /// by output error on the fit windows together with the model's coefficient factors;
-  /// `searched`: started from search_candidate() (fewer iterations, no extra starts). Its score is
+  /// `searched`: started from search_candidate() (fewer iterations, no extra starts);
+  /// `other_starts`: further starts of the new effects' parameters (the factors as for `e`), the
+  /// lowest training cost taken (a refinement: from its parent's fit and from equation error).
+  /// Its score is
   /// then: its training RMS when it is hopeless (not below (1 − significance/2) × that of `none`,
   /// set_none_training_rms()) or cannot be cross-validated; the cross-validated RMS when `cv`;
   /// else its training RMS, and its blocks and values go to *later for cross_validate(). Its
   /// error_after is the RMS over all runs given.
   CandidateScore fit(EffectKind kind, const Effects& e, const ModelScales& start_scales,
                      const std::optional<AlphaModel>& alpha, bool searched, bool cv,
-                     PendingCrossValidation* later) const;
+                     PendingCrossValidation* later,
+                     const std::vector<Effects>& other_starts = {}) const;
 
   /// fit() of several new effects at once (the pair fallback): `kinds` all fitted with the
   /// named effects and the coefficient factors, from `e`; the score's `effect` is kinds[0]. With
   /// more than one kind there are no extra starts (`searched` as for fit()).
   CandidateScore fit_joint(const std::vector<EffectKind>& kinds, const Effects& e,
                            const ModelScales& start_scales, const std::optional<AlphaModel>& alpha,
-                           bool searched, bool cv, PendingCrossValidation* later) const;
+                           bool searched, bool cv, PendingCrossValidation* later,
+                           const std::vector<Effects>& other_starts = {}) const;
 
   /// Cross-validate: `cand` (fitted on all fit runs: `values` of `blocks`) fitted on each fold
   /// from there and scored on the other; score is the RMS over both held-out folds.
@@ -304,6 +310,13 @@ void fit_searched(const CandidateFitter& fitter, const std::vector<DeferredFit>&
 /// named: the winner must beat `none` by a margin on data it was not fitted on).
 void cross_validate_lowest(const CandidateFitter& fitter, std::vector<CandidateScore>& candidates,
                            const std::vector<PendingCrossValidation>& pending);
+
+/// The named effect `kind` takes in an effect of `named` it generalises (EffectSpec::take_in):
+/// that one's level moved into its parameters in `e`, that one's parameters zeroed (the same
+/// torque). Returns that effect; nullopt when `kind` generalises none of `named` or has no form
+/// for it.
+std::optional<EffectKind> take_in_parent(EffectKind kind, Effects& e,
+                                         const std::vector<EffectKind>& named);
 
 /// Refinements: each candidate at `refinements` (a generalisation, EffectSpec::refines) is
 /// searched, fitted and cross-validated only when the effect it generalises was cross-validated

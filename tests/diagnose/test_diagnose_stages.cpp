@@ -632,5 +632,34 @@ TEST(DiagnoseStages, PairFallbackNamesNoPairOnEffectFreeData) {
   }
 }
 
+// A Stribeck friction named on top of the Coulomb level of an earlier round takes it in: the
+// level goes into its Fc and Fs, coulomb_friction leaves the model's torque (the same torque);
+// an offset torque, which it does not generalise, stays.
+TEST(DiagnoseStages, AGeneralisationTakesInTheCoulombLevelOfAnEarlierRound) {
+  Effects e;
+  e.coulomb_v = 0.012, e.offset_v = 0.003;
+  e.coulomb_smoothing_rad_s = e.stribeck_smoothing_rad_s = 0.014;
+  e.stribeck_coulomb_v = 0.002, e.stribeck_breakaway_v = 0.025, e.stribeck_velocity_rad_s = 0.3;
+  const Effects before = e;
+  const std::vector<EffectKind> named = {EffectKind::kOffsetTorque, EffectKind::kCoulombFriction,
+                                         EffectKind::kStribeckFriction};
+  const std::optional<EffectKind> x = take_in_parent(EffectKind::kStribeckFriction, e, named);
+  ASSERT_TRUE(x.has_value());
+  EXPECT_EQ(*x, EffectKind::kCoulombFriction);
+  EXPECT_EQ(e.coulomb_v, 0.0);
+  EXPECT_DOUBLE_EQ(e.stribeck_coulomb_v, 0.014);
+  EXPECT_DOUBLE_EQ(e.stribeck_breakaway_v, 0.037);
+  EXPECT_EQ(e.stribeck_velocity_rad_s, 0.3);
+  EXPECT_EQ(e.offset_v, 0.003);
+  for (double w : {-0.9, -0.01, 0.0, 0.005, 0.2, 1.4})
+    EXPECT_NEAR(effect_torque(e, 0.01, w), effect_torque(before, 0.01, w), 1e-15) << w;
+  // Nothing to take in: an effect that generalises nothing named, or no generalisation at all.
+  Effects f = before;
+  EXPECT_FALSE(take_in_parent(EffectKind::kStribeckFriction, f, {EffectKind::kOffsetTorque}));
+  EXPECT_FALSE(take_in_parent(EffectKind::kAsymmetricFriction, f, {EffectKind::kOffsetTorque}));
+  EXPECT_FALSE(take_in_parent(EffectKind::kGravity, f, named));
+  EXPECT_EQ(f.coulomb_v, before.coulomb_v);
+}
+
 }  // namespace
 }  // namespace alphainv::diagnose_detail

@@ -661,5 +661,52 @@ TEST(Effects, TorqueDependsOnVelocityExactlyWhenEffectTorqueVariesWithThetaDot) 
   EXPECT_EQ(other_parameters, 9);  // gravity g, cogging a; the discovered x and six sin/cos terms
 }
 
+// EffectSpec::take_in: a Coulomb level c moved into a generalisation is the same torque, both
+// from the generalisation at zero (its start from the parent's fit in diagnose) and added onto
+// one already fitted (a parent named in an earlier round taken in); an offset is no such form.
+TEST(Effects, AGeneralisationTakesInACoulombLevelAsTheSameTorque) {
+  int with_take_in = 0;
+  for (EffectKind kind : kAllEffectKinds) {
+    const EffectSpec& spec = effect_spec(kind);
+    if (spec.take_in == nullptr) continue;
+    ++with_take_in;
+    EXPECT_TRUE(spec.generalises(EffectKind::kCoulombFriction)) << spec.name;
+    Effects fitted;  // the generalisation fitted, smoothing as diagnose's initial model sets it
+    fitted.stribeck_coulomb_v = 0.01, fitted.stribeck_breakaway_v = 0.03;
+    fitted.stribeck_velocity_rad_s = 0.2;
+    fitted.asymmetric_coulomb_pos_v = 0.02, fitted.asymmetric_coulomb_neg_v = 0.012;
+    fitted.asymmetric_viscous_diff_v_s = 0.001;
+    fitted.position_coulomb_v = 0.015, fitted.position_slope_v_per_rad = 0.05;
+    fitted.coulomb_smoothing_rad_s = fitted.stribeck_smoothing_rad_s = 0.01;
+    fitted.asymmetric_smoothing_rad_s = fitted.position_smoothing_rad_s = 0.01;
+    Effects only;  // this effect alone
+    only.coulomb_smoothing_rad_s = 0.01;
+    for (const auto& p : effect_parameters(kind, true)) only.*(p.member) = fitted.*(p.member);
+    Effects at_zero = only;  // its levels at zero, its shape (v_s) kept
+    for (const auto& p : effect_parameters(kind)) {
+      if (p.check != ParameterCheck::kPositiveIfActive) at_zero.*(p.member) = 0.0;
+    }
+    const double c = 0.007;
+    Effects coulomb;
+    coulomb.coulomb_v = c, coulomb.coulomb_smoothing_rad_s = 0.01;
+    Effects both = only;  // named on top of a Coulomb level
+    both.coulomb_v = c;
+    ASSERT_TRUE(spec.take_in(EffectKind::kCoulombFriction, c, at_zero)) << spec.name;
+    Effects taken = only;
+    ASSERT_TRUE(spec.take_in(EffectKind::kCoulombFriction, c, taken)) << spec.name;
+    Effects scratch = only;
+    EXPECT_FALSE(spec.take_in(EffectKind::kOffsetTorque, c, scratch)) << spec.name;
+    for (double theta : {-0.05, 0.0, 0.04}) {
+      for (double w : {-1.5, -0.3, -0.004, 0.0, 0.002, 0.1, 0.8}) {
+        EXPECT_NEAR(effect_torque(at_zero, theta, w), effect_torque(coulomb, theta, w), 1e-15)
+            << spec.name << " from zero, theta " << theta << ", theta' " << w;
+        EXPECT_NEAR(effect_torque(taken, theta, w), effect_torque(both, theta, w), 1e-15)
+            << spec.name << " on top, theta " << theta << ", theta' " << w;
+      }
+    }
+  }
+  EXPECT_EQ(with_take_in, 3);  // Stribeck, asymmetric and position-dependent friction
+}
+
 }  // namespace
 }  // namespace alphainv

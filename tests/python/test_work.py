@@ -133,3 +133,4 @@ def test_diagnose_names_a_hidden_offset_torque():
     assert first["named"] == "offset_torque"
     # a named round keeps its model: not `none` refitted
     assert first["none_refitted"] is False and first["none_refit_how"] == ""
+    assert first["took_in"] == "none"  # an offset generalises nothing
