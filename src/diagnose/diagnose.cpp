@@ -1207,9 +1207,8 @@ void try_refinements(const CandidateFitter& fitter, const RoundStart& start,
     // must then beat `none` as any candidate (choose_winner()).
     bool parent_named = false;
     if (p == candidates.end()) {
-      for (auto it = candidates.begin(); it != candidates.end(); ++it) {
-        if (it->effect == EffectKind::kNone && it->ok) p = it;
-      }
+      p = std::find_if(candidates.begin(), candidates.end(),
+                       [](const CandidateScore& c) { return c.effect == EffectKind::kNone && c.ok; });
       const auto& named = fitter.model().named;
       parent_named = p != candidates.end() &&
                      std::any_of(named.begin(), named.end(),
@@ -2167,9 +2166,11 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
       ++named_so_far;
       // A generalisation named on top of the effect it generalises (tried so from the round
       // after that one was named: try_refinements()) takes it in: one term of its form.
+      // (the effect taken in may be the model given's, in model.named but never in effects_named)
       if (const auto x = diagnose_detail::take_in_parent(k, model.effects, model.named)) {
         model.named.erase(std::find(model.named.begin(), model.named.end(), *x));
-        res.effects_named.erase(std::find(res.effects_named.begin(), res.effects_named.end(), *x));
+        const auto was_named = std::find(res.effects_named.begin(), res.effects_named.end(), *x);
+        if (was_named != res.effects_named.end()) res.effects_named.erase(was_named);
         res.rounds.back().took_in = *x;
       }
     }

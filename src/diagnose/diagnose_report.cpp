@@ -52,7 +52,7 @@ std::string round_named_text(const DiagnoseRound& rd) {
   std::string s = effect_name(rd.named);
   if (rd.named_second != EffectKind::kNone) s += std::string(" + ") + effect_name(rd.named_second);
   if (rd.took_in != EffectKind::kNone)
-    s += std::string(", taking in the ") + effect_name(rd.took_in) + " of an earlier round";
+    s += std::string(", taking in the ") + effect_name(rd.took_in) + " already in the model";
   return s;
 }
 

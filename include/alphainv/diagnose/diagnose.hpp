@@ -213,10 +213,11 @@ struct DiagnoseRound {
   bool none_refitted = false;
   /// With none_refitted: which refit, in words (for the report).
   std::string none_refit_how;
-  /// The effect of an earlier round this round's generalisation took in (EffectSpec::take_in: a
-  /// Coulomb level named before gravity was in the model, then Stribeck or asymmetric friction
-  /// named on top of it, is one friction term of that form); kNone otherwise. The taken-in
-  /// effect is no longer in the model (DiagnoseResult::effects_named).
+  /// The effect already in the model (named in an earlier round, or the model given's) this
+  /// round's generalisation took in (EffectSpec::take_in: a Coulomb level named before gravity
+  /// was in the model, then Stribeck or asymmetric friction named on top of it, is one friction
+  /// term of that form); kNone otherwise. The taken-in effect is no longer in the model, nor in
+  /// DiagnoseResult::effects_named.
   EffectKind took_in = EffectKind::kNone;
 };
 
