@@ -796,18 +796,36 @@ PreparedRuns prepare_runs(const std::vector<DiagnoseRun>& runs_in, const Diagnos
   return p;
 }
 
+double Effects::*friction_smoothing(EffectKind kind) {
+  switch (kind) {
+    case EffectKind::kCoulombFriction: return &Effects::coulomb_smoothing_rad_s;
+    case EffectKind::kStribeckFriction: return &Effects::stribeck_smoothing_rad_s;
+    case EffectKind::kAsymmetricFriction: return &Effects::asymmetric_smoothing_rad_s;
+    case EffectKind::kPositionDependentFriction: return &Effects::position_smoothing_rad_s;
+    default: return nullptr;
+  }
+}
+
+Effects with_modelling_choices(Effects base, const Effects& chosen) {
+  for (EffectKind k : kAllEffectKinds) {
+    if (double Effects::*eps = friction_smoothing(k)) base.*eps = chosen.*eps;
+  }
+  return base;
+}
+
 RoundModel initial_model(const std::vector<DiagnoseRun>& runs_in, const PreparedRuns& prepared) {
   RoundModel m;
   // All runs share the effects of the first run's model as the starting point.
   m.effects = runs_in.front().model.effects;
   m.scales = prepared.unit_scales;
   // The Coulomb term's smoothing (and the other friction terms', each its own): a share of the
-  // RMS velocity (kFrictionSmoothingShareOfRmsVelocity).
+  // RMS velocity (kFrictionSmoothingShareOfRmsVelocity); a fit may take it sharper
+  // (CandidateFitter::fit_joint(), kSharperFrictionSmoothing).
   const double eps = kFrictionSmoothingShareOfRmsVelocity * prepared.scales.theta_dot_rms;
-  if (!effect_active(m.effects, EffectKind::kCoulombFriction)) m.effects.coulomb_smoothing_rad_s = eps;
-  if (!effect_active(m.effects, EffectKind::kStribeckFriction)) m.effects.stribeck_smoothing_rad_s = eps;
-  if (!effect_active(m.effects, EffectKind::kAsymmetricFriction)) m.effects.asymmetric_smoothing_rad_s = eps;
-  if (!effect_active(m.effects, EffectKind::kPositionDependentFriction)) m.effects.position_smoothing_rad_s = eps;
+  for (EffectKind k : kAllEffectKinds) {
+    if (double Effects::*eps_member = friction_smoothing(k); eps_member && !effect_active(m.effects, k))
+      m.effects.*eps_member = eps;
+  }
   for (EffectKind k : kAllEffectKinds) {
     // (a discovered term given with the model stays as it is: it is not refitted as a candidate)
     if (effect_active(m.effects, k) && effect_spec(k).candidate) m.named.push_back(k);
@@ -1058,7 +1076,7 @@ CandidateScore CandidateFitter::fit_joint(const std::vector<EffectKind>& kinds, 
     }
     oo.extra_starts.push_back(std::move(p0));
   }
-  const OutputErrorResult full = fit_output_error(pr, oo);
+  OutputErrorResult full = fit_output_error(pr, oo);
   if (!full.ok) {
     cand.message = full.message;
     return cand;
@@ -1079,6 +1097,44 @@ CandidateScore CandidateFitter::fit_joint(const std::vector<EffectKind>& kinds, 
                         !(full.rms <= (1.0 - 0.5 * opt.significance) * none_training_rms_) &&
                         !(std::isfinite(none_error_after_) &&
                           cand.error_after <= (1.0 - opt.significance) * none_error_after_);
+  // --- named work (friction smoothing chosen by the data): a friction form's tanh smoothing ε is
+  // a modelling choice, kFrictionSmoothingShareOfRmsVelocity of the RMS velocity to start with.
+  // A joint's friction can switch sharper than that (a real Coulomb friction is a sign): a
+  // candidate that is not hopeless is fitted again from there with ε × kSharperFrictionSmoothing
+  // (its simulation costs more substeps, so only then), the sharper one is kept when its
+  // training RMS is lower by kSharperSmoothingGain. The blocks' parameter count stays; the choice
+  // is carried in the candidate's effects (with_modelling_choices()).
+  std::string smoothing_note;
+  if (!hopeless) {
+    Effects sharp = base;
+    bool any = false;
+    for (EffectKind k : kinds) {
+      if (double Effects::*eps = friction_smoothing(k)) sharp.*eps *= kSharperFrictionSmoothing, any = true;
+    }
+    if (any) {
+      OutputErrorProblem ps =
+          make_problem(prepared_.runs, prepared_.fit_runs, blocks, sharp, start_scales, opt, cand_alpha);
+      for (std::size_t j = 0; j < ps.parameters.size(); ++j)
+        ps.parameters[j].initial = std::clamp(full.values[j], ps.parameters[j].lower, ps.parameters[j].upper);
+      OutputErrorOptions os;
+      os.threads = opt.threads;
+      os.max_iterations = oo.max_iterations;
+      const OutputErrorResult r = fit_output_error(ps, os);
+      if (r.ok && r.rms < (1.0 - kSharperSmoothingGain) * full.rms) {
+        smoothing_note = kSharperSmoothingNote + num(1.0 / kSharperFrictionSmoothing, "%.3g") +
+                         "× sharper: training RMS " + num(r.rms, "%.4g") + " against " +
+                         num(full.rms, "%.4g");
+        full = r;
+        base = sharp;
+        cand.scales = scales_of(ms, full.values);
+        cand.effects = effects_of(blocks, base, ms, full.values);
+        cand.training_rms = full.rms;
+        cand.error_after = pooled_rms(
+            runs_in_, run_rms_with(runs_in_, prepared_.all, cand.effects, cand.scales, opt, cand_alpha),
+            prepared_.all);
+      }
+    }
+  }
   if (hopeless) {
     cand.score = full.rms;
     cand.fold_scores = {full.rms, full.rms};
@@ -1096,6 +1152,8 @@ CandidateScore CandidateFitter::fit_joint(const std::vector<EffectKind>& kinds, 
     cand.score = full.rms;
     cand.fold_scores = {full.rms, full.rms};
   }
+  if (!smoothing_note.empty())
+    cand.message = cand.message.empty() ? smoothing_note : smoothing_note + "; " + cand.message;
   return cand;
 }
 
@@ -1104,7 +1162,8 @@ void CandidateFitter::cross_validate(CandidateScore& cand, const std::vector<Par
   const DiagnoseOptions& opt = options_;
   const ModelScales& ms = model_.scales;
   const std::vector<DiagnoseRun>& runs = prepared_.runs;
-  const Effects base = model_.effects;
+  // (the candidate's modelling choices: a friction smoothing its fit took sharper)
+  const Effects base = with_modelling_choices(model_.effects, cand.effects);
   double ss = 0.0, n = 0.0;
   for (int f = 0; f < 2; ++f) {
     OutputErrorProblem pf = make_problem(runs, prepared_.folds[static_cast<std::size_t>(f)],
@@ -1129,7 +1188,10 @@ void CandidateFitter::cross_validate(CandidateScore& cand, const std::vector<Par
   }
   cand.score = n > 0 ? std::sqrt(ss / n) : kInf;
   cand.cross_validated = true;
-  cand.message.clear();
+  // (a pruning note no longer holds; the note of a friction smoothing taken sharper does)
+  cand.message = cand.message.rfind(kSharperSmoothingNote, 0) == 0
+                     ? cand.message.substr(0, cand.message.find("; "))
+                     : std::string();
 }
 
 CandidateScore CandidateFitter::not_fitted(EffectKind kind, const Effects& e,
@@ -1482,7 +1544,7 @@ CandidateScore settle_winner(const CandidateFitter& fitter, const CandidateScore
   // the error over all runs also counts the runs' starts (transients from rest).
   const std::vector<DiagnoseRun>& runs_in = fitter.runs_in();
   const std::vector<std::size_t>& all = fitter.prepared().all;
-  const Effects& current = fitter.model().effects;
+  const Effects current = with_modelling_choices(fitter.model().effects, winner.effects);
   const std::vector<ParamBlock> blocks = fitter.blocks_with(kinds, winner.effects);
   const OutputErrorProblem pr = make_problem(runs_in, fitter.prepared().fit_runs, blocks, current,
                                              winner.scales, opt, winner.alpha);
@@ -1499,7 +1561,8 @@ CandidateScore settle_winner(const CandidateFitter& fitter, const CandidateScore
       settled.effects = e;
       settled.scales = s;
       settled.error_after = after;
-      settled.message = "settled on the whole fit runs (RMS over all runs " +
+      settled.message = (winner.message.rfind(kSharperSmoothingNote, 0) == 0 ? winner.message + "; " : "") +
+                        "settled on the whole fit runs (RMS over all runs " +
                         num(winner.error_after, "%.4g") + " from the windows' fit)";
     }
   }

@@ -1,5 +1,6 @@
 #include "alphainv/diagnose/diagnose_report.hpp"
 #include "alphainv/diagnose/discovered_term.hpp"
+#include "diagnose_stages.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -145,7 +146,9 @@ std::string disturbance_csv(const DisturbanceFinding& f, const std::vector<Diagn
 
 std::string effect_parameters_text(const Effects& e, EffectKind kind) {
   std::string s;
-  for (const auto& par : effect_parameters(kind)) {
+  // (a friction form's smoothing ε too: a modelling choice, which its fit may take sharper)
+  for (const auto& par : effect_parameters(kind, true)) {
+    if (par.modelling_choice && par.member != diagnose_detail::friction_smoothing(kind)) continue;
     if (detail::omitted_when_zero(kind, par) && e.*(par.member) == 0.0) continue;
     s += (s.empty() ? "" : ", ") + std::string(par.name) + " = " + fmt(e.*(par.member)) + " " +
          par.unit;

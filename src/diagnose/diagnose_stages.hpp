@@ -120,6 +120,21 @@ struct RoundModel {
 /// term is on; unit factors.
 RoundModel initial_model(const std::vector<DiagnoseRun>& runs_in, const PreparedRuns& prepared);
 
+/// A friction form's tanh smoothing ε (a modelling choice: EffectParameter::modelling_choice),
+/// the member of `kind`'s; nullptr for the other effects.
+double Effects::*friction_smoothing(EffectKind kind);
+
+/// A friction form's fit is tried again with its ε times this (CandidateFitter::fit_joint()) …
+inline constexpr double kSharperFrictionSmoothing = 0.1;
+/// … and that one kept when its training RMS is at least this share lower.
+inline constexpr double kSharperSmoothingGain = 0.02;
+/// The start of a candidate's note when it was (CandidateScore::message).
+inline constexpr const char* kSharperSmoothingNote = "friction smoothing ε taken ";
+
+/// `base` with the friction smoothings ε of `chosen` (a candidate's effects, whose fit may have
+/// taken them sharper).
+Effects with_modelling_choices(Effects base, const Effects& chosen);
+
 /// Locate: where the residual θ − θ_sim of `sims` (one per run; empty for a failed run)
 /// concentrates, per run and over the state, and its words (ResidualLocation).
 ResidualLocation locate(const std::vector<DiagnoseRun>& runs,

@@ -131,14 +131,11 @@ TEST(DiagnoseReport, ReportsOfARealDiagnosis) {
   // The sweep's dataset with a hidden offset torque, two candidates, 4 fit runs of 1.5 s.
   Effects hidden;
   hidden.offset_v = 0.02;
-  const GeneratedDataset g = test::one_pose_dataset(hidden, 4);
-  FitPipelineOptions fo;
-  fo.run_validation = false;
-  const DatasetFit fit = fit_dataset(g.index, g.runs, fo);
-  const std::vector<DiagnoseRun> runs = diagnose_runs(g.index, g.runs, fit);
+  const auto d = test::one_pose_diagnose_runs(hidden, 4);
+  const std::vector<DiagnoseRun>& runs = d->runs;
   DiagnoseOptions opt;
   opt.max_effects = 1;
-  opt.simulation = fit.simulation;
+  opt.simulation = d->fit.simulation;
   opt.max_fit_runs = 4;
   opt.fit_window_s = 1.5;
   opt.candidates = {EffectKind::kOffsetTorque, EffectKind::kTimeDelay};

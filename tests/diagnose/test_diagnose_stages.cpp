@@ -661,5 +661,53 @@ TEST(DiagnoseStages, AGeneralisationTakesInTheCoulombLevelOfAnEarlierRound) {
   EXPECT_EQ(f.coulomb_v, before.coulomb_v);
 }
 
+// A friction form's smoothing ε is a modelling choice the data may sharpen
+// (CandidateFitter::fit_joint()): Coulomb friction generated switching within 0.001 rad/s is
+// fitted at ε × kSharperFrictionSmoothing; generated smoother than the first ε (0.05 rad/s
+// against 0.014), it keeps the first (the sharper fit's training RMS is 8 % higher there).
+TEST(DiagnoseStages, AFrictionFitTakesItsSmoothingSharperOnlyWhenTheDataSwitchSharper) {
+  struct Outcome {
+    double eps_first, eps_fitted, level;
+    std::string message;
+  };
+  const auto fit_coulomb = [](double generated_eps) {
+    Effects hidden;
+    hidden.coulomb_v = 0.025;
+    hidden.coulomb_smoothing_rad_s = generated_eps;
+    const auto d = test::one_pose_diagnose_runs(hidden, 5);
+    const std::vector<DiagnoseRun>& runs = d->runs;
+    DiagnoseOptions opt;
+    opt.simulation = d->fit.simulation;
+    const PreparedRuns prepared = prepare_runs(runs, opt);
+    const RoundModel model = initial_model(runs, prepared);
+    const std::vector<DiagnoseRun> no_runs;
+    const Reidentifier reid(no_runs, 0.0);
+    const RoundStart start = start_round(runs, prepared, model, reid, opt);
+    CandidateFitter fitter(runs, prepared, model, opt);
+    const CandidateSearch none_start = search_candidate(EffectKind::kNone, prepared, model, start, reid, opt);
+    const CandidateScore none =
+        fitter.fit(EffectKind::kNone, none_start.effects, none_start.start_scales, none_start.alpha, false, false, nullptr);
+    EXPECT_TRUE(none.ok) << none.message;
+    fitter.set_none_training_rms(none.training_rms);
+    fitter.set_none_error_after(none.error_after);
+    const CandidateSearch s = search_candidate(EffectKind::kCoulombFriction, prepared, model, start, reid, opt);
+    PendingCrossValidation later;
+    const CandidateScore c =
+        fitter.fit(EffectKind::kCoulombFriction, s.effects, s.start_scales, s.alpha, false, false, &later);
+    EXPECT_TRUE(c.ok) << c.message;
+    EXPECT_LT(c.training_rms, 0.8 * none.training_rms);  // 0.53 and 0.71 here
+    return Outcome{model.effects.coulomb_smoothing_rad_s, c.effects.coulomb_smoothing_rad_s, c.effects.coulomb_v,
+                   c.message};
+  };
+  const Outcome sharp = fit_coulomb(0.001);
+  EXPECT_NEAR(sharp.eps_first, kFrictionSmoothingShareOfRmsVelocity * 1.4, 0.5 * 0.014);  // the RMS velocity ~1.4 rad/s
+  EXPECT_DOUBLE_EQ(sharp.eps_fitted, kSharperFrictionSmoothing * sharp.eps_first);
+  EXPECT_EQ(sharp.message.rfind(kSharperSmoothingNote, 0), 0u) << sharp.message;
+  EXPECT_NEAR(sharp.level, 0.025, 0.15 * 0.025) << sharp.message;  // 0.0273 here (training RMS 8 % lower)
+  const Outcome smooth = fit_coulomb(0.05);
+  EXPECT_EQ(smooth.eps_fitted, smooth.eps_first);
+  EXPECT_EQ(smooth.message.find(kSharperSmoothingNote), std::string::npos) << smooth.message;
+}
+
 }  // namespace
 }  // namespace alphainv::diagnose_detail
