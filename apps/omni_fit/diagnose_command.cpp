@@ -124,6 +124,15 @@ nlohmann::json result_json(const DiagnoseResult& res) {
   for (const UnexplainedPart& u : res.verdict.unexplained)
     unexplained.push_back({{"where", u.where}, {"size", num(u.size)}, {"ratio", num(u.ratio)}});
   j["unexplained"] = unexplained;
+  // Candidates the data cannot tell from the named effects (separability.hpp).
+  nlohmann::json not_separable = nlohmann::json::array();
+  for (const NotSeparable& n : res.not_separable) {
+    nlohmann::json from = nlohmann::json::array();
+    for (EffectKind k : n.from) from.push_back(effect_name(k));
+    not_separable.push_back({{"effect", effect_name(n.effect)}, {"from", from}, {"share", num(n.share)},
+                             {"message", n.message}});
+  }
+  j["not_separable"] = not_separable;
   // The external_disturbance stage: the intervals located in time (the series: disturbance.csv).
   if (res.disturbance.tried) {
     const DisturbanceFinding& f = res.disturbance;
@@ -336,6 +345,7 @@ int run_diagnose(const DiagnoseCommandOptions& o) {
     if (res.discovered) std::printf("  %s\n", res.discovered->brief_report().c_str());
     if (res.discovered && res.discovered->kept)
       std::printf("  %s\n", discovered_verdict_text(*res.discovered).c_str());
+    for (const NotSeparable& n : res.not_separable) std::printf("  not separable: %s\n", n.message.c_str());
   }
   return 0;
 }

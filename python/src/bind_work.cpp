@@ -351,8 +351,22 @@ struct DiagnoseOutcome {
     d["rounds"] = rounds();
     d["before"] = location(result.before), d["after"] = location(result.after);
     d["model"] = result.ok ? json_loads(format_model_file(model)) : py::object(py::none());
+    d["not_separable"] = not_separable();
     d["report"] = result.full_report();
     return d;
+  }
+  /// DiagnoseResult::not_separable: the candidates the data cannot tell from the named effects.
+  py::list not_separable() const {
+    py::list out;
+    for (const NotSeparable& n : result.not_separable) {
+      py::dict d;
+      d["effect"] = effect_name(n.effect);
+      py::list from;
+      for (EffectKind k : n.from) from.append(effect_name(k));
+      d["from"] = from, d["share"] = n.share, d["message"] = n.message;
+      out.append(d);
+    }
+    return out;
   }
 };
 
@@ -568,6 +582,9 @@ the residual concentrates, the model with the effects folded in, the reports.)")
       .def_property_readonly("figures", &DiagnoseOutcome::figures,
                              "effect, effects, error_before, error_after, seconds, candidates")
       .def_property_readonly("rounds", &DiagnoseOutcome::rounds)
+      .def_property_readonly("not_separable", &DiagnoseOutcome::not_separable,
+                             "candidates the data cannot tell from the named effects: dicts of effect, "
+                             "from (the named effects), share, message")
       .def_property_readonly("before", [](const DiagnoseOutcome& d) { return DiagnoseOutcome::location(d.result.before); })
       .def_property_readonly("after", [](const DiagnoseOutcome& d) { return DiagnoseOutcome::location(d.result.after); })
       .def_property_readonly("model", [](const DiagnoseOutcome& d) -> py::object {

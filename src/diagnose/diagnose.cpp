@@ -2322,6 +2322,26 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
     }
   }
   // --- end of the discovered term ----------------------------------------------------------
+  // --- separability (separability.hpp): the last round's candidates its named effects span
+  if (!res.rounds.empty() && !model.named.empty()) {
+    std::vector<std::pair<EffectKind, Effects>> tried;
+    for (const CandidateScore& c : res.rounds.back().candidates) {
+      if (c.ok) tried.emplace_back(c.effect, c.effects);  // (set aside as inactive too: its form)
+    }
+    std::vector<double> th, thd;
+    std::size_t total = 0;
+    for (std::size_t i : prepared.fit_runs) total += runs_in[i].data->size();
+    const std::size_t stride = std::max<std::size_t>(1, total / 20000);  // at most ~20000 states
+    for (std::size_t i : prepared.fit_runs) {
+      const RunData& d = *runs_in[i].data;
+      std::vector<double> dth, ddth;
+      local_quadratic_derivatives(d.t, d.theta, 0.01, dth, ddth);
+      for (std::size_t k = 0; k < d.size(); k += stride) {
+        if (std::isfinite(d.theta[k]) && std::isfinite(dth[k])) th.push_back(d.theta[k]), thd.push_back(dth[k]);
+      }
+    }
+    res.not_separable = not_separable(model.effects, model.named, tried, th, thd);
+  }
   res.effects = model.effects;
   res.scales = model.scales;
   res.alpha = model.alpha;

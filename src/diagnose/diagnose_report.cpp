@@ -220,6 +220,7 @@ std::string DiagnoseResult::full_report() const {
   if (disturbance.tried) s << "External disturbance: " << disturbance.message << "\n";
   if (std::isfinite(noise_floor.rms)) s << "Verdict: " << verdict.text() << "\n";
   if (discovered && discovered->kept) s << "  " << discovered_verdict_text(*discovered) << "\n";
+  for (const NotSeparable& n : not_separable) s << "Not separable: " << n.message << "\n";
   return s.str();
 }
 
@@ -329,6 +330,10 @@ std::string diagnose_report_markdown(const DiagnoseResult& r, const std::vector<
                                                          : "Structure remains")
     << "**: " << r.verdict.text() << "\n";
   if (r.discovered && r.discovered->kept) s << "\n" << discovered_verdict_text(*r.discovered) << "\n";
+  if (!r.not_separable.empty()) {
+    s << "\nNot separable on these data (separability.hpp): named and not ruled out either.\n\n";
+    for (const NotSeparable& n : r.not_separable) s << "- " << n.message << "\n";
+  }
   if (!r.verdict.unexplained.empty()) {
     s << "\n| where | RMS | × floor |\n|---|---|---|\n";
     for (const UnexplainedPart& u : r.verdict.unexplained)

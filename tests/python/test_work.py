@@ -134,3 +134,8 @@ def test_diagnose_names_a_hidden_offset_torque():
     # a named round keeps its model: not `none` refitted
     assert first["none_refitted"] is False and first["none_refit_how"] == ""
     assert first["took_in"] == "none"  # an offset generalises nothing
+    # candidates the data cannot tell from the named effects: spanned by named ones only
+    for n in d.not_separable:
+        assert set(n["from"]) <= set(d.effects_named) and n["effect"] not in d.effects_named
+        assert 0.999 <= n["share"] <= 1.0 and n["effect"] in n["message"]
+    assert d.to_dict()["not_separable"] == d.not_separable

@@ -53,6 +53,7 @@
 #include <vector>
 
 #include "alphainv/diagnose/external_disturbance.hpp"
+#include "alphainv/diagnose/separability.hpp"
 #include "alphainv/diagnose/verdict.hpp"
 #include "alphainv/model/controller.hpp"
 #include "alphainv/data/dataset.hpp"
@@ -296,6 +297,9 @@ struct DiagnoseResult {
   /// (its `kept`; kept: in `effects`; effects_named lists the catalogue's named effects only);
   /// nullptr: not tried (explained, not usable, or switched off).
   std::shared_ptr<const DiscoveredTermResult> discovered;
+  /// The last round's candidates the data cannot tell from the named effects (separability.hpp):
+  /// not named, and not ruled out either.
+  std::vector<NotSeparable> not_separable;
   std::vector<std::size_t> fit_runs;  ///< indices of the runs used to fit and score
   double seconds = 0.0;               ///< wall time
 

@@ -1,0 +1,104 @@
+// separability.hpp: the share of a column the others span, and which candidates the named
+// effects' sensitivities span over the states visited.
+#include "alphainv/diagnose/separability.hpp"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+namespace alphainv {
+namespace {
+
+constexpr double kTwoPi = 6.283185307179586;
+
+TEST(Separability, SpannedShareIsTheUncentredRSquared) {
+  // y = 2·x1 − x2 exactly: all of it; y ⟂ the columns: none of it; y = x1 + e with e = (0, 0, 3, 0)
+  // ⟂ x1: |x1|² / (|x1|² + |e|²).
+  const std::vector<double> x1 = {1, 0, 0, 0}, x2 = {0, 1, 0, 0};
+  EXPECT_NEAR(spanned_share({2, -1, 0, 0}, {x1, x2}), 1.0, 1e-15);
+  EXPECT_NEAR(spanned_share({0, 0, 1, 1}, {x1, x2}), 0.0, 1e-15);
+  EXPECT_NEAR(spanned_share({1, 0, 3, 0}, {x1}), 1.0 / 10.0, 1e-15);
+  EXPECT_TRUE(std::isnan(spanned_share({0, 0, 0, 0}, {x1})));
+  EXPECT_TRUE(std::isnan(spanned_share({1, 2}, {})));
+  EXPECT_TRUE(std::isnan(spanned_share({1, 2}, {{1, 2, 3}})));
+}
+
+/// States of a sine motion θ = A·sin(2π·t) over 2 s at 1 kHz.
+void sine_states(double amplitude_rad, std::vector<double>& theta, std::vector<double>& theta_dot) {
+  theta.clear(), theta_dot.clear();
+  for (int k = 0; k < 2000; ++k) {
+    const double t = 0.001 * k;
+    theta.push_back(amplitude_rad * std::sin(kTwoPi * t));
+    theta_dot.push_back(amplitude_rad * kTwoPi * std::cos(kTwoPi * t));
+  }
+}
+
+TEST(Separability, AnOffsetIsNotSeparableFromGravityOverASmallStrokeOnlyAndNotFromCoulomb) {
+  Effects model;
+  model.gravity_v = 0.22, model.gravity_theta0_rad = -0.088;
+  Effects offset;
+  offset.offset_v = 0.01;
+  Effects coulomb;
+  coulomb.coulomb_v = 0.02, coulomb.coulomb_smoothing_rad_s = 0.014;
+  const std::vector<std::pair<EffectKind, Effects>> tried = {
+      {EffectKind::kOffsetTorque, offset}, {EffectKind::kCoulombFriction, coulomb},
+      {EffectKind::kGravity, model},  // named: skipped
+      {EffectKind::kTimeDelay, Effects{}}};  // not a torque of the state: skipped
+  std::vector<double> th, thd;
+  // ±0.07 rad: cos(θ + θ0) is a constant to 1 − sin(θ0)²·A²/2/cos(θ0)² ≈ 1 − 2e-5 of its energy.
+  sine_states(0.07, th, thd);
+  const std::vector<NotSeparable> small = not_separable(model, {EffectKind::kGravity}, tried, th, thd);
+  ASSERT_EQ(small.size(), 1u);
+  EXPECT_EQ(small[0].effect, EffectKind::kOffsetTorque);
+  ASSERT_EQ(small[0].from.size(), 1u);
+  EXPECT_EQ(small[0].from[0], EffectKind::kGravity);
+  EXPECT_GT(small[0].share, 0.99999);
+  EXPECT_NE(small[0].message.find("offset_torque is not separable from gravity"), std::string::npos)
+      << small[0].message;
+  // ±1.5 rad: the curvature separates them (an offset is then far from gravity's tangent space).
+  sine_states(1.5, th, thd);
+  EXPECT_TRUE(not_separable(model, {EffectKind::kGravity}, tried, th, thd).empty());
+  // An offset fitted to nothing (gravity's θ0 took it up) is judged by its form: the same.
+  Effects none_left;
+  sine_states(0.07, th, thd);
+  const auto collapsed = not_separable(model, {EffectKind::kGravity}, {{EffectKind::kOffsetTorque, none_left}}, th, thd);
+  ASSERT_EQ(collapsed.size(), 1u);
+  EXPECT_GT(collapsed[0].share, 0.99999);
+  sine_states(1.5, th, thd);
+  // Nothing named, or no states: nothing to say.
+  EXPECT_TRUE(not_separable(model, {}, tried, th, thd).empty());
+  EXPECT_TRUE(not_separable(model, {EffectKind::kGravity}, tried, {}, {}).empty());
+}
+
+TEST(Separability, ACandidateSpannedOnlyByTwoNamedTogetherNamesBoth) {
+  // n = d0 − Fc·tanh(θ̇/ε) named; a position-dependent friction with no slope is Coulomb friction
+  // alone (spanned by it); an asymmetric friction (Fc⁺ ≠ Fc⁻) is a Coulomb friction plus an
+  // offset while moving (switching within ε = 0.3 % of the peak velocity here): spanned only by
+  // the two together.
+  Effects model;
+  model.offset_v = 0.005;
+  model.coulomb_v = 0.02, model.coulomb_smoothing_rad_s = 0.0014;
+  Effects pos;
+  pos.position_coulomb_v = 0.02, pos.position_smoothing_rad_s = 0.0014;
+  Effects asym;
+  asym.asymmetric_coulomb_pos_v = 0.03, asym.asymmetric_coulomb_neg_v = 0.01;
+  asym.asymmetric_smoothing_rad_s = 0.0014;
+  std::vector<double> th, thd;
+  sine_states(0.07, th, thd);
+  const std::vector<NotSeparable> ns =
+      not_separable(model, {EffectKind::kOffsetTorque, EffectKind::kCoulombFriction},
+                    {{EffectKind::kPositionDependentFriction, pos}, {EffectKind::kAsymmetricFriction, asym}}, th, thd);
+  ASSERT_EQ(ns.size(), 2u);
+  EXPECT_EQ(ns[0].effect, EffectKind::kPositionDependentFriction);
+  EXPECT_EQ(ns[0].from, std::vector<EffectKind>{EffectKind::kCoulombFriction});
+  EXPECT_EQ(ns[1].effect, EffectKind::kAsymmetricFriction);
+  EXPECT_EQ(ns[1].from, (std::vector<EffectKind>{EffectKind::kOffsetTorque, EffectKind::kCoulombFriction}));
+  // With a slope along θ the position-dependent friction leaves Coulomb's span.
+  pos.position_slope_v_per_rad = 0.3;
+  EXPECT_TRUE(not_separable(model, {EffectKind::kCoulombFriction}, {{EffectKind::kPositionDependentFriction, pos}},
+                            th, thd)
+                  .empty());
+}
+
+}  // namespace
+}  // namespace alphainv
