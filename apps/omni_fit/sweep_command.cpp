@@ -242,6 +242,8 @@ int run_sweep(const SweepCommandOptions& o) {
     }
     nlohmann::json unexplained = nlohmann::json::array();
     for (const UnexplainedPart& u : r.verdict.unexplained) unexplained.push_back({{"where", u.where}, {"ratio", u.ratio}});
+    nlohmann::json not_separable = nlohmann::json::array();  // (separability.hpp)
+    for (const NotSeparable& n : r.not_separable) not_separable.push_back(effect_name(n.effect));
     jcases.push_back({{"effect", effect_name(c.effect)}, {"magnitude", magnitude},
                       {"hidden", effects_text(hidden)}, {"generate", gen_cmd.str()},
                       {"noise_std_rad", c.noise_std_rad}, {"seed", c.seed},
@@ -252,7 +254,7 @@ int run_sweep(const SweepCommandOptions& o) {
                       {"structure_rms", r.verdict.structure_rms},
                       {"fundamental_median", r.verdict.fundamental_median},
                       {"fundamental_runs_above", r.verdict.fundamental_runs_above},
-                      {"unexplained", unexplained}});
+                      {"unexplained", unexplained}, {"not_separable", not_separable}});
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   // The matrix.
