@@ -115,7 +115,7 @@ def pair_case(args, bins, a, b, tmp):
     return {"hidden": [a["effect"], b["effect"]], "named": named, "not_separable": not_separable,
             "verdict": (j or {}).get("verdict"), "seconds": time.time() - t0,
             "error_before": (j or {}).get("error_before"), "error_after": (j or {}).get("error_after"),
-            "generate": " ".join(gen)}
+            "generate": " ".join("DIR" if x == folder else x for x in gen)}
 
 
 def main():
@@ -188,6 +188,8 @@ def main():
                    f"{min(x['noise_std_rad'] for x in eff):g} rad); {time.time() - t0:.0f} s.", ""] + rows
         md += ["", f"Both effects named: {both}/{len(res)} ({100.0 * both / max(len(res), 1):.0f} %; goal >= 80 %). "
                    f"Of the others, {stated} named one and said the other is not separable from it on these data."]
+        # each pair's dataset, to look at one closely (omni_gen, then omni_fit diagnose DIR)
+        md += ["", "Datasets:", ""] + [f"- {' + '.join(r['hidden'])}: `{r['generate']}`" for r in res]
     text = "\n".join(md) + "\n"
     print(text)
     if args.out:
