@@ -53,6 +53,13 @@ std::vector<NotSeparable> not_separable(const Effects& model, const std::vector<
   for (const auto& [kind, fitted] : candidates) {
     if (kind == EffectKind::kNone || effect_spec(kind).role != EffectRole::kTorque) continue;
     if (std::find(named.begin(), named.end(), kind) != named.end()) continue;
+    // Nested forms (a generalisation and the effect it generalises, EffectSpec::generalises):
+    // whether the extra parameters earn their place is the rounds' test; a generalisation fitted
+    // back to its parent's form is that form, not a confusion with it.
+    const bool nested = std::any_of(named.begin(), named.end(), [&](EffectKind k) {
+      return effect_spec(kind).generalises(k) || effect_spec(k).generalises(kind);
+    });
+    if (nested) continue;
     Effects only;  // the candidate's own term alone
     for (const auto& par : effect_parameters(kind, true)) only.*(par.member) = fitted.*(par.member);
     std::vector<double> y(n);

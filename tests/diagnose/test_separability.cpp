@@ -70,32 +70,42 @@ TEST(Separability, AnOffsetIsNotSeparableFromGravityOverASmallStrokeOnlyAndNotFr
   EXPECT_TRUE(not_separable(model, {EffectKind::kGravity}, tried, {}, {}).empty());
 }
 
-TEST(Separability, ACandidateSpannedOnlyByTwoNamedTogetherNamesBoth) {
-  // n = d0 − Fc·tanh(θ̇/ε) named; a position-dependent friction with no slope is Coulomb friction
-  // alone (spanned by it); an asymmetric friction (Fc⁺ ≠ Fc⁻) is a Coulomb friction plus an
-  // offset while moving (switching within ε = 0.3 % of the peak velocity here): spanned only by
-  // the two together.
+TEST(Separability, ALongCoggingIsGravitysAndNestedFormsAreNotChecked) {
+  // Named: an offset and gravity. A cogging whose period (2 rad) is much longer than the stroke
+  // (±0.07 rad) is a constant and a spring there: gravity's sensitivities span it (the offset's
+  // constant alone does not); of period 0.02 rad it is its own.
   Effects model;
   model.offset_v = 0.005;
-  model.coulomb_v = 0.02, model.coulomb_smoothing_rad_s = 0.0014;
-  Effects pos;
-  pos.position_coulomb_v = 0.02, pos.position_smoothing_rad_s = 0.0014;
-  Effects asym;
-  asym.asymmetric_coulomb_pos_v = 0.03, asym.asymmetric_coulomb_neg_v = 0.01;
-  asym.asymmetric_smoothing_rad_s = 0.0014;
+  model.gravity_v = 0.2, model.gravity_theta0_rad = 0.1;
+  Effects cogging;
+  cogging.cogging_v = 0.01, cogging.cogging_period_rad = 2.0, cogging.cogging_phase_rad = 0.7;
   std::vector<double> th, thd;
   sine_states(0.07, th, thd);
-  const std::vector<NotSeparable> ns =
-      not_separable(model, {EffectKind::kOffsetTorque, EffectKind::kCoulombFriction},
-                    {{EffectKind::kPositionDependentFriction, pos}, {EffectKind::kAsymmetricFriction, asym}}, th, thd);
-  ASSERT_EQ(ns.size(), 2u);
-  EXPECT_EQ(ns[0].effect, EffectKind::kPositionDependentFriction);
-  EXPECT_EQ(ns[0].from, std::vector<EffectKind>{EffectKind::kCoulombFriction});
-  EXPECT_EQ(ns[1].effect, EffectKind::kAsymmetricFriction);
-  EXPECT_EQ(ns[1].from, (std::vector<EffectKind>{EffectKind::kOffsetTorque, EffectKind::kCoulombFriction}));
-  // With a slope along θ the position-dependent friction leaves Coulomb's span.
-  pos.position_slope_v_per_rad = 0.3;
-  EXPECT_TRUE(not_separable(model, {EffectKind::kCoulombFriction}, {{EffectKind::kPositionDependentFriction, pos}},
+  const std::vector<EffectKind> named = {EffectKind::kOffsetTorque, EffectKind::kGravity};
+  const std::vector<NotSeparable> ns = not_separable(model, named, {{EffectKind::kCogging, cogging}}, th, thd);
+  ASSERT_EQ(ns.size(), 1u);
+  EXPECT_EQ(ns[0].effect, EffectKind::kCogging);
+  EXPECT_EQ(ns[0].from, std::vector<EffectKind>{EffectKind::kGravity});
+  EXPECT_NE(ns[0].message.find("cogging is not separable from gravity"), std::string::npos) << ns[0].message;
+  cogging.cogging_period_rad = 0.02;
+  EXPECT_TRUE(not_separable(model, named, {{EffectKind::kCogging, cogging}}, th, thd).empty());
+  // Nested forms: an asymmetric friction fitted symmetric, or a position-dependent friction with
+  // no slope, is the Coulomb friction named (spanned by it), and an asymmetric friction is also
+  // an offset's generalisation: none is said to be a confusion.
+  Effects friction;
+  friction.coulomb_v = 0.02, friction.coulomb_smoothing_rad_s = 0.014;
+  Effects asym;
+  asym.asymmetric_coulomb_pos_v = asym.asymmetric_coulomb_neg_v = 0.02;
+  asym.asymmetric_smoothing_rad_s = 0.014;
+  Effects pos;
+  pos.position_coulomb_v = 0.02, pos.position_smoothing_rad_s = 0.014;
+  const std::vector<std::pair<EffectKind, Effects>> nested = {{EffectKind::kAsymmetricFriction, asym},
+                                                              {EffectKind::kPositionDependentFriction, pos}};
+  EXPECT_TRUE(not_separable(friction, {EffectKind::kCoulombFriction}, nested, th, thd).empty());
+  EXPECT_TRUE(not_separable(model, {EffectKind::kOffsetTorque}, {{EffectKind::kAsymmetricFriction, asym}}, th, thd)
+                  .empty());
+  // … while the same position-dependent friction against an offset (not nested) is its own.
+  EXPECT_TRUE(not_separable(model, {EffectKind::kOffsetTorque}, {{EffectKind::kPositionDependentFriction, pos}},
                             th, thd)
                   .empty());
 }
