@@ -2,9 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 
 #include <Eigen/Dense>
+
+#include "common/format.hpp"
 
 namespace alphainv {
 
@@ -96,11 +97,9 @@ std::vector<NotSeparable> not_separable(const Effects& model, const std::vector<
         if (std::find(column_kind.begin(), column_kind.end(), k) != column_kind.end()) ns.from.push_back(k);
     }
     for (EffectKind k : ns.from) names += (names.empty() ? "" : " + ") + std::string(effect_name(k));
-    char b[64];
-    std::snprintf(b, sizeof b, "%.5f", r2);
     ns.message = std::string(effect_name(kind)) + " is not separable from " + names +
                  " on these data: its torque lies within what refitting " + names +
-                 " makes (share " + b + " of its energy over the fit runs' states), so they fit "
+                 " makes (share " + common::format("%.5f", r2) + " of its energy over the fit runs' states), so they fit "
                  "these data alike with or without it; runs over other states (a wider stroke, "
                  "other speeds) would tell them apart";
     out.push_back(std::move(ns));

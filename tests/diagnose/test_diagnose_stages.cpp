@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 
 #include <gtest/gtest.h>
 
@@ -125,8 +126,7 @@ TEST(DiagnoseStages, LocateMeasuresTheResidualWhereItIs) {
 /// The sweep's 10-run dataset of one pose (test_diagnose.cpp) with a hidden offset torque,
 /// fitted without the offset, as diagnose() sees it: 4 fit runs, 1.5 s windows.
 struct OffsetCase {
-  GeneratedDataset g;
-  DatasetFit fit;
+  std::unique_ptr<test::OnePoseDiagnoseRuns> fitted;  // (the runs point into it)
   std::vector<DiagnoseRun> runs;
   DiagnoseOptions opt;
   PreparedRuns prepared;
@@ -138,12 +138,9 @@ const OffsetCase& offset_case() {
     auto* oc = new OffsetCase;
     Effects hidden;
     hidden.offset_v = 0.02;
-    oc->g = test::one_pose_dataset(hidden, 4);
-    FitPipelineOptions fo;
-    fo.run_validation = false;
-    oc->fit = fit_dataset(oc->g.index, oc->g.runs, fo);
-    oc->runs = diagnose_runs(oc->g.index, oc->g.runs, oc->fit);
-    oc->opt.simulation = oc->fit.simulation;
+    oc->fitted = test::one_pose_diagnose_runs(hidden, 4);
+    oc->runs = oc->fitted->runs;
+    oc->opt.simulation = oc->fitted->fit.simulation;
     oc->opt.max_fit_runs = 4;
     oc->opt.fit_window_s = 1.5;
     oc->prepared = prepare_runs(oc->runs, oc->opt);
