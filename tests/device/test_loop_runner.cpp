@@ -208,7 +208,9 @@ TEST(LoopRunner, KeepsABoundedNumberOfResultsNobodyWaitsFor) {
   RunResult r;
   ASSERT_TRUE(runner.wait_run(kRuns, 1.0, r));  // the newest is still there, once
   EXPECT_EQ(r.run_id, kRuns);
-  EXPECT_GE(r.timing.ticks, 2);
+  // A 3 ms run is timed by the wall clock: on a loaded machine one late tick can use it all up
+  // (CI once saw 1 tick), so the check is only that the kept result is of a run that ran.
+  EXPECT_GE(r.timing.ticks, 1);
   EXPECT_FALSE(runner.wait_run(kRuns, 0.01, r));
   EXPECT_FALSE(runner.wait_run(1, 0.01, r));  // the oldest went
   EXPECT_EQ(runner.kept_results(), LoopRunner::kKeptResults - 1);
