@@ -274,7 +274,7 @@ struct DiagnoseOutcome {
 
   static py::dict candidate(const CandidateScore& c) {
     py::dict d;
-    d["effect"] = effect_name(c.effect), d["ok"] = c.ok, d["message"] = c.message;
+    d["effect"] = effect_name(c.effect), d["ok"] = c.ok, d["message"] = c.full_message();
     d["score"] = num(c.score), d["fold_scores"] = py::make_tuple(num(c.fold_scores[0]), num(c.fold_scores[1]));
     d["error_after"] = num(c.error_after), d["training_rms"] = num(c.training_rms);
     d["cross_validated"] = c.cross_validated, d["reidentified"] = c.reidentified;

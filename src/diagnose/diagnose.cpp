@@ -1104,7 +1104,6 @@ CandidateScore CandidateFitter::fit_joint(const std::vector<EffectKind>& kinds, 
   // (its simulation costs more substeps, so only then), the sharper one is kept when its
   // training RMS is lower by kSharperSmoothingGain. The blocks' parameter count stays; the choice
   // is carried in the candidate's effects (with_modelling_choices()).
-  std::string smoothing_note;
   if (!hopeless) {
     Effects sharp = base;
     bool any = false;
@@ -1121,7 +1120,7 @@ CandidateScore CandidateFitter::fit_joint(const std::vector<EffectKind>& kinds, 
       os.max_iterations = oo.max_iterations;
       const OutputErrorResult r = fit_output_error(ps, os);
       if (r.ok && r.rms < (1.0 - kSharperSmoothingGain) * full.rms) {
-        smoothing_note = kSharperSmoothingNote + num(1.0 / kSharperFrictionSmoothing, "%.3g") +
+        cand.modelling_note = kSharperSmoothingNote + num(1.0 / kSharperFrictionSmoothing, "%.3g") +
                          "× sharper: training RMS " + num(r.rms, "%.4g") + " against " +
                          num(full.rms, "%.4g");
         full = r;
@@ -1152,8 +1151,6 @@ CandidateScore CandidateFitter::fit_joint(const std::vector<EffectKind>& kinds, 
     cand.score = full.rms;
     cand.fold_scores = {full.rms, full.rms};
   }
-  if (!smoothing_note.empty())
-    cand.message = cand.message.empty() ? smoothing_note : smoothing_note + "; " + cand.message;
   return cand;
 }
 
@@ -1188,10 +1185,7 @@ void CandidateFitter::cross_validate(CandidateScore& cand, const std::vector<Par
   }
   cand.score = n > 0 ? std::sqrt(ss / n) : kInf;
   cand.cross_validated = true;
-  // (a pruning note no longer holds; the note of a friction smoothing taken sharper does)
-  cand.message = cand.message.rfind(kSharperSmoothingNote, 0) == 0
-                     ? cand.message.substr(0, cand.message.find("; "))
-                     : std::string();
+  cand.message.clear();  // a pruning note no longer holds (its modelling_note does)
 }
 
 CandidateScore CandidateFitter::not_fitted(EffectKind kind, const Effects& e,
@@ -1561,8 +1555,7 @@ CandidateScore settle_winner(const CandidateFitter& fitter, const CandidateScore
       settled.effects = e;
       settled.scales = s;
       settled.error_after = after;
-      settled.message = (winner.message.rfind(kSharperSmoothingNote, 0) == 0 ? winner.message + "; " : "") +
-                        "settled on the whole fit runs (RMS over all runs " +
+      settled.message = "settled on the whole fit runs (RMS over all runs " +
                         num(winner.error_after, "%.4g") + " from the windows' fit)";
     }
   }

@@ -193,7 +193,7 @@ std::string DiagnoseResult::full_report() const {
     for (const CandidateScore& c : rd.candidates) {
       const std::string params = c.ok ? effect_parameters_text(c.effects, c.effect) : "–";
       s << candidate_line(std::string(effect_name(c.effect)) + (named_alone(rd, c) ? " *" : ""),
-                          c, params + (c.message.empty() ? "" : "; " + c.message));
+                          c, params + (c.full_message().empty() ? "" : "; " + c.full_message()));
     }
     if (rd.none_at_winner_breakpoints) {
       s << candidate_line("none at the winner's breakpoints", *rd.none_at_winner_breakpoints,
@@ -205,7 +205,7 @@ std::string DiagnoseResult::full_report() const {
     }
     for (const PairScore& p : rd.pairs) {
       s << candidate_line(pair_label(p) + (p.named ? " *" : ""), p.fit,
-                          pair_parameters_text(p) + (p.fit.message.empty() ? "" : "; " + p.fit.message));
+                          pair_parameters_text(p) + (p.fit.full_message().empty() ? "" : "; " + p.fit.full_message()));
       if (p.none_at_breakpoints) {
         s << candidate_line("none at the pair's breakpoints", *p.none_at_breakpoints,
                             "the pair must beat this too");
@@ -251,7 +251,7 @@ std::string diagnose_report_markdown(const DiagnoseResult& r, const std::vector<
                                        : std::string(effect_name(c.effect)))
         << " | " << fmt(c.score) << " | " << fmt(c.fold_scores[0]) << " | "
         << fmt(c.fold_scores[1]) << " | " << fmt(c.error_after) << " | "
-        << (c.ok ? effect_parameters_text(c.effects, c.effect) : "–") << " | " << c.message << " |\n";
+        << (c.ok ? effect_parameters_text(c.effects, c.effect) : "–") << " | " << c.full_message() << " |\n";
     }
     if (rd.none_at_winner_breakpoints) {
       const CandidateScore& t = *rd.none_at_winner_breakpoints;
@@ -272,7 +272,7 @@ std::string diagnose_report_markdown(const DiagnoseResult& r, const std::vector<
       const std::string label = pair_label(p);
       s << "| " << (p.named ? "**" + label + "**" : label) << " | " << fmt(p.fit.score) << " | "
         << fmt(p.fit.fold_scores[0]) << " | " << fmt(p.fit.fold_scores[1]) << " | "
-        << fmt(p.fit.error_after) << " | " << pair_parameters_text(p) << " | " << p.fit.message
+        << fmt(p.fit.error_after) << " | " << pair_parameters_text(p) << " | " << p.fit.full_message()
         << " |\n";
       if (p.none_at_breakpoints) {
         const CandidateScore& t = *p.none_at_breakpoints;

@@ -125,7 +125,10 @@ struct DiagnoseOptions {
 struct CandidateScore {
   EffectKind effect = EffectKind::kNone;
   bool ok = false;
-  std::string message;
+  std::string message;  ///< what happened to it (pruned, set aside, settled); may be empty
+  /// The modelling choices its fit made, which hold whatever the later stages do (e.g. "friction
+  /// smoothing ε taken 10× sharper: …"); empty: the defaults. full_message() puts it first.
+  std::string modelling_note;
   Effects effects;      ///< all effects of the model with this candidate (fitted on all fit runs)
   ModelScales scales;   ///< the model's coefficient factors fitted with it
   /// Cross-validated RMS of θ − θ_sim [position unit] (the score; lower is better).
@@ -146,6 +149,12 @@ struct CandidateScore {
   /// its fitted parameters contradict the form it names: a Stribeck friction with Fs <= Fc).
   /// An inactive candidate is not cross-validated, cannot win and is not preferred by parsimony.
   std::string inactive;
+
+  /// modelling_note and message, joined by "; " (either may be empty).
+  std::string full_message() const {
+    if (modelling_note.empty()) return message;
+    return message.empty() ? modelling_note : modelling_note + "; " + message;
+  }
 };
 
 /// Where the residual concentrates.
