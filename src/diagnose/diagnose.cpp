@@ -120,6 +120,26 @@ std::vector<ResidualSeries> residual_series(const std::vector<DiagnoseRun>& runs
   return out;
 }
 
+MeasuredStates measured_states(const std::vector<DiagnoseRun>& runs,
+                               const std::vector<std::size_t>& which, std::size_t at_most) {
+  MeasuredStates s;
+  std::size_t total = 0;
+  for (std::size_t i : which) total += runs[i].data->size();
+  const std::size_t stride = std::max<std::size_t>(1, total / std::max<std::size_t>(at_most, 1));
+  for (std::size_t i : which) {
+    const RunData& d = *runs[i].data;
+    std::vector<double> dth, ddth;
+    local_quadratic_derivatives(d.t, d.theta, 0.01, dth, ddth);
+    for (std::size_t k = 0; k < d.size(); k += stride) {
+      if (std::isfinite(d.theta[k]) && std::isfinite(dth[k])) {
+        s.theta.push_back(d.theta[k]);
+        s.theta_dot.push_back(dth[k]);
+      }
+    }
+  }
+  return s;
+}
+
 TorqueResidual torque_residual(const std::vector<DiagnoseRun>& runs,
                                const std::vector<std::size_t>& fit_runs,
                                const std::vector<SimulationResult>& sims, const Effects& current) {
@@ -1084,12 +1104,16 @@ CandidateScore CandidateFitter::fit_joint(const std::vector<EffectKind>& kinds, 
   cand.ok = true;
   cand.reidentified = searched;
   cand.alpha = cand_alpha;
-  cand.scales = scales_of(ms, full.values);
-  cand.effects = effects_of(blocks, base, ms, full.values);
-  cand.training_rms = full.rms;
-  const auto rr_all =
-      run_rms_with(runs_in_, prepared_.all, cand.effects, cand.scales, opt, cand_alpha);
-  cand.error_after = pooled_rms(runs_in_, rr_all, prepared_.all);
+  // The candidate at fitted values (on the effects `base`): its model and its RMS over all runs.
+  const auto take_fit = [&](const OutputErrorResult& fitted) {
+    cand.scales = scales_of(ms, fitted.values);
+    cand.effects = effects_of(blocks, base, ms, fitted.values);
+    cand.training_rms = fitted.rms;
+    cand.error_after = pooled_rms(
+        runs_in_, run_rms_with(runs_in_, prepared_.all, cand.effects, cand.scales, opt, cand_alpha),
+        prepared_.all);
+  };
+  take_fit(full);
   // --- named work (competition): not hopeless either when the error over ALL runs drops by the
   // significance against none's, though the windows do not show it (the runs' starts from rest,
   // where the coefficient factors cannot absorb the effect as they do in the steady state).
@@ -1125,12 +1149,7 @@ CandidateScore CandidateFitter::fit_joint(const std::vector<EffectKind>& kinds, 
                          num(full.rms, "%.4g");
         full = r;
         base = sharp;
-        cand.scales = scales_of(ms, full.values);
-        cand.effects = effects_of(blocks, base, ms, full.values);
-        cand.training_rms = full.rms;
-        cand.error_after = pooled_rms(
-            runs_in_, run_rms_with(runs_in_, prepared_.all, cand.effects, cand.scales, opt, cand_alpha),
-            prepared_.all);
+        take_fit(full);
       }
     }
   }
@@ -2321,19 +2340,8 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
     for (const CandidateScore& c : res.rounds.back().candidates) {
       if (c.ok) tried.emplace_back(c.effect, c.effects);  // (set aside as inactive too: its form)
     }
-    std::vector<double> th, thd;
-    std::size_t total = 0;
-    for (std::size_t i : prepared.fit_runs) total += runs_in[i].data->size();
-    const std::size_t stride = std::max<std::size_t>(1, total / 20000);  // at most ~20000 states
-    for (std::size_t i : prepared.fit_runs) {
-      const RunData& d = *runs_in[i].data;
-      std::vector<double> dth, ddth;
-      local_quadratic_derivatives(d.t, d.theta, 0.01, dth, ddth);
-      for (std::size_t k = 0; k < d.size(); k += stride) {
-        if (std::isfinite(d.theta[k]) && std::isfinite(dth[k])) th.push_back(d.theta[k]), thd.push_back(dth[k]);
-      }
-    }
-    res.not_separable = not_separable(model.effects, model.named, tried, th, thd);
+    const MeasuredStates states = measured_states(runs_in, prepared.fit_runs, kSeparabilityStates);
+    res.not_separable = not_separable(model.effects, model.named, tried, states.theta, states.theta_dot);
   }
   res.effects = model.effects;
   res.scales = model.scales;

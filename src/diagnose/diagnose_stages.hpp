@@ -70,6 +70,17 @@ struct TorqueResidual {
 std::vector<ResidualSeries> residual_series(const std::vector<DiagnoseRun>& runs,
                                             const std::vector<std::vector<double>>& sims);
 
+/// Measured states (θ and θ̇ from a local quadratic fit over 10 ms) along the runs `which` of
+/// `runs`, every k-th sample so that there are about `at_most`; non-finite ones left out.
+struct MeasuredStates {
+  std::vector<double> theta, theta_dot;
+};
+MeasuredStates measured_states(const std::vector<DiagnoseRun>& runs,
+                               const std::vector<std::size_t>& which, std::size_t at_most);
+
+/// The states separability.hpp judges over (about; a few k samples suffice for a share of 99.9 %).
+inline constexpr std::size_t kSeparabilityStates = 20000;
+
 /// n̂ along `fit_runs` of `runs` from the current model's simulations `sims` (one per run; a
 /// failed one is skipped) with the effects `current` in the plant input; the first and last
 /// 20 ms of each run are left out (one-sided derivative fits).
