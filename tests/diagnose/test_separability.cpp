@@ -110,5 +110,39 @@ TEST(Separability, ALongCoggingIsGravitysAndNestedFormsAreNotChecked) {
                   .empty());
 }
 
+TEST(Separability, SpannedOnlyByTwoNamedTogetherNamesBoth) {
+  // Three distinct states, θ = 0, 1, 2 rad with θ̇ = +1, −1, +1 rad/s (|θ̇| ≫ ε: the Coulomb term
+  // is −Fc·(1, −1, 1)). Named: Coulomb friction and gravity (θ0 = 0: its sensitivities −sin θ and
+  // −g·cos θ). An offset's constant (1, 1, 1) is neither ±(1, −1, 1) nor a·sin θ + b·cos θ (b = 1
+  // at θ = 0 and a = (1 − cos 1)/sin 1 = 0.546 at θ = 1 give 0.081 at θ = 2), but the three
+  // columns span R³: it is not separable from the two together, and both are named.
+  Effects model;
+  model.coulomb_v = 0.02, model.coulomb_smoothing_rad_s = 1e-3;
+  model.gravity_v = 0.1, model.gravity_theta0_rad = 0.0;
+  Effects offset;
+  offset.offset_v = 0.01;
+  std::vector<double> th, thd;
+  for (int k = 0; k < 300; ++k) th.push_back(k % 3), thd.push_back(k % 3 == 1 ? -1.0 : 1.0);
+  const std::vector<EffectKind> named = {EffectKind::kCoulombFriction, EffectKind::kGravity};
+  const std::vector<NotSeparable> ns = not_separable(model, named, {{EffectKind::kOffsetTorque, offset}}, th, thd);
+  ASSERT_EQ(ns.size(), 1u);
+  EXPECT_EQ(ns[0].effect, EffectKind::kOffsetTorque);
+  EXPECT_EQ(ns[0].from, named);
+  EXPECT_GT(ns[0].share, 0.999999);
+  EXPECT_NE(ns[0].message.find("not separable from coulomb_friction + gravity"), std::string::npos)
+      << ns[0].message;
+  // Either one alone leaves most of it: with gravity only, the share is that of (1, 1, 1) on
+  // span{sin θ, cos θ} at the three states, below the threshold; so nothing is said.
+  EXPECT_TRUE(not_separable(model, {EffectKind::kGravity}, {{EffectKind::kOffsetTorque, offset}}, th, thd).empty());
+  EXPECT_TRUE(
+      not_separable(model, {EffectKind::kCoulombFriction}, {{EffectKind::kOffsetTorque, offset}}, th, thd).empty());
+  // Moving one way only (θ̇ = +1 at all three), the Coulomb term is the constant itself: spanned by
+  // Coulomb friction alone, which alone is named.
+  for (double& v : thd) v = 1.0;
+  const std::vector<NotSeparable> one = not_separable(model, named, {{EffectKind::kOffsetTorque, offset}}, th, thd);
+  ASSERT_EQ(one.size(), 1u);
+  EXPECT_EQ(one[0].from, std::vector<EffectKind>{EffectKind::kCoulombFriction});
+}
+
 }  // namespace
 }  // namespace alphainv
