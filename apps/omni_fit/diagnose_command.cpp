@@ -71,6 +71,9 @@ nlohmann::json result_json(const DiagnoseResult& res) {
     const DiagnoseRound& rd = res.rounds[r];
     for (EffectKind k : {rd.named, rd.named_second}) {  // (a pair: both, the round's error after)
       if (k == EffectKind::kNone) continue;
+      // (an effect dropped after the rounds is in `dropped`)
+      if (std::any_of(res.dropped.begin(), res.dropped.end(), [&](const DroppedEffect& d) { return d.effect == k; }))
+        continue;
       // (an effect a later round's generalisation took in is in that one's entry)
       if (std::any_of(res.rounds.begin() + static_cast<std::ptrdiff_t>(r) + 1, res.rounds.end(),
                       [&](const DiagnoseRound& later) { return later.took_in == k; }))
@@ -133,6 +136,13 @@ nlohmann::json result_json(const DiagnoseResult& res) {
                              {"message", n.message}});
   }
   j["not_separable"] = not_separable;
+  // Effects the rounds named and the model did without in the end (backward elimination).
+  nlohmann::json dropped = nlohmann::json::array();
+  for (const DroppedEffect& x : res.dropped) {
+    dropped.push_back({{"effect", effect_name(x.effect)}, {"score_with", num(x.score_with)},
+                       {"score_without", num(x.score_without)}, {"message", x.message}});
+  }
+  j["dropped"] = dropped;
   // The external_disturbance stage: the intervals located in time (the series: disturbance.csv).
   if (res.disturbance.tried) {
     const DisturbanceFinding& f = res.disturbance;
@@ -346,6 +356,7 @@ int run_diagnose(const DiagnoseCommandOptions& o) {
     if (res.discovered && res.discovered->kept)
       std::printf("  %s\n", discovered_verdict_text(*res.discovered).c_str());
     for (const NotSeparable& n : res.not_separable) std::printf("  not separable: %s\n", n.message.c_str());
+    for (const DroppedEffect& x : res.dropped) std::printf("  dropped: %s\n", x.message.c_str());
   }
   return 0;
 }

@@ -352,6 +352,7 @@ struct DiagnoseOutcome {
     d["before"] = location(result.before), d["after"] = location(result.after);
     d["model"] = result.ok ? json_loads(format_model_file(model)) : py::object(py::none());
     d["not_separable"] = not_separable();
+    d["dropped"] = dropped();
     d["report"] = result.full_report();
     return d;
   }
@@ -364,6 +365,17 @@ struct DiagnoseOutcome {
       py::list from;
       for (EffectKind k : n.from) from.append(effect_name(k));
       d["from"] = from, d["share"] = n.share, d["message"] = n.message;
+      out.append(d);
+    }
+    return out;
+  }
+  /// DiagnoseResult::dropped: effects the rounds named that the model did without in the end.
+  py::list dropped() const {
+    py::list out;
+    for (const DroppedEffect& x : result.dropped) {
+      py::dict d;
+      d["effect"] = effect_name(x.effect);
+      d["score_with"] = x.score_with, d["score_without"] = x.score_without, d["message"] = x.message;
       out.append(d);
     }
     return out;
@@ -585,6 +597,9 @@ the residual concentrates, the model with the effects folded in, the reports.)")
       .def_property_readonly("not_separable", &DiagnoseOutcome::not_separable,
                              "candidates the data cannot tell from the named effects: dicts of effect, "
                              "from (the named effects), share, message")
+      .def_property_readonly("dropped", &DiagnoseOutcome::dropped,
+                             "effects the rounds named that the model did without in the end (backward "
+                             "elimination): dicts of effect, score_with, score_without, message")
       .def_property_readonly("before", [](const DiagnoseOutcome& d) { return DiagnoseOutcome::location(d.result.before); })
       .def_property_readonly("after", [](const DiagnoseOutcome& d) { return DiagnoseOutcome::location(d.result.after); })
       .def_property_readonly("model", [](const DiagnoseOutcome& d) -> py::object {

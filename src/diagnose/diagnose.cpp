@@ -1340,6 +1340,72 @@ std::optional<EffectKind> take_in_parent(EffectKind kind, Effects& e, const std:
   return std::nullopt;
 }
 
+Effects without_effect(const Effects& e, EffectKind kind) {
+  const Effects defaults;
+  Effects out = e;
+  for (const auto& par : effect_parameters(kind, true)) out.*(par.member) = defaults.*(par.member);
+  return out;
+}
+
+std::vector<DroppedEffect> drop_redundant_effects(const std::vector<DiagnoseRun>& runs_in,
+                                                  const PreparedRuns& prepared, RoundModel& model,
+                                                  const std::vector<EffectKind>& eligible,
+                                                  const DiagnoseOptions& opt) {
+  std::vector<DroppedEffect> dropped;
+  if (!prepared.can_cross_validate) return dropped;
+  for (;;) {
+    std::vector<EffectKind> in;
+    for (EffectKind k : model.named) {
+      if (std::find(eligible.begin(), eligible.end(), k) != eligible.end() &&
+          effect_spec(k).role != EffectRole::kTimeSeries)
+        in.push_back(k);
+    }
+    if (in.size() < 2) break;
+    const CandidateFitter with_all(runs_in, prepared, model, opt);
+    const CandidateScore all =
+        with_all.fit(EffectKind::kNone, model.effects, model.scales, model.alpha, true, true, nullptr);
+    if (!all.ok || !all.cross_validated) break;
+    // The model as it is over all runs (settled on the whole fit runs by its rounds).
+    const double error_now = pooled_rms(
+        runs_in, run_rms_with(runs_in, prepared.all, model.effects, model.scales, opt, model.alpha), prepared.all);
+    std::optional<CandidateScore> best;
+    EffectKind best_kind = EffectKind::kNone;
+    for (EffectKind k : in) {
+      RoundModel reduced = model;
+      reduced.effects = without_effect(model.effects, k);
+      reduced.named.erase(std::find(reduced.named.begin(), reduced.named.end(), k));
+      const CandidateFitter fitter(runs_in, prepared, reduced, opt);
+      CandidateScore c =
+          fitter.fit(EffectKind::kNone, reduced.effects, model.scales, model.alpha, true, true, nullptr);
+      if (!c.ok || !c.cross_validated || beats(all, c, opt.significance)) continue;
+      // … and the whole runs agree (the test improves_all_runs() put to its naming): settled on
+      // the whole fit runs as a winner is, the model without it is not worse over all runs by
+      // significance/2.
+      c = settle_winner(fitter, c);
+      if (!std::isfinite(c.error_after) || error_now <= (1.0 - 0.5 * opt.significance) * c.error_after) continue;
+      if (!best || c.score < best->score) best = std::move(c), best_kind = k;
+    }
+    if (!best) break;
+    DroppedEffect d;
+    d.effect = best_kind;
+    d.score_with = all.score;
+    d.score_without = best->score;
+    d.message = std::string(effect_name(best_kind)) + " dropped after the rounds: the named effects refitted " +
+                "without it score " + num(best->score, "%.4g") + " (folds " + num(best->fold_scores[0], "%.4g") +
+                ", " + num(best->fold_scores[1], "%.4g") + "), with it " + num(all.score, "%.4g") + " (folds " +
+                num(all.fold_scores[0], "%.4g") + ", " + num(all.fold_scores[1], "%.4g") +
+                "), not below (1 − significance) × that in both folds; RMS over all runs " +
+                num(best->error_after, "%.4g") + " without it, " + num(error_now, "%.4g") +
+                " with it: it no longer earns its place (named while an effect named after it was "
+                "missing)";
+    model.effects = best->effects;
+    model.scales = best->scales;
+    model.named.erase(std::find(model.named.begin(), model.named.end(), best_kind));
+    dropped.push_back(std::move(d));
+  }
+  return dropped;
+}
+
 bool beats(const CandidateScore& c, const CandidateScore& ref, double significance) {
   const double keep = 1.0 - significance;
   return c.score <= keep * ref.score && c.fold_scores[0] <= keep * ref.fold_scores[0] &&
@@ -2259,6 +2325,13 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
         break;
       }
     }
+  }
+  // --- named work (backward elimination): an effect named early, before the effects named
+  // after it were in the model, may no longer earn its place (drop_redundant_effects()).
+  if (res.termination != DiagnoseTermination::kFailure && opt.drop_redundant) {
+    res.dropped = drop_redundant_effects(runs_in, prepared, model, res.effects_named, opt);
+    for (const DroppedEffect& d : res.dropped)
+      res.effects_named.erase(std::find(res.effects_named.begin(), res.effects_named.end(), d.effect));
   }
   // --- a provisional estimate judged again, with the effects the rounds named: named when the
   // error over the runs it touches drops by the significance with it known; else the rounds

@@ -221,6 +221,7 @@ std::string DiagnoseResult::full_report() const {
   if (std::isfinite(noise_floor.rms)) s << "Verdict: " << verdict.text() << "\n";
   if (discovered && discovered->kept) s << "  " << discovered_verdict_text(*discovered) << "\n";
   for (const NotSeparable& n : not_separable) s << "Not separable: " << n.message << "\n";
+  for (const DroppedEffect& d : dropped) s << "Dropped: " << d.message << "\n";
   return s.str();
 }
 
@@ -292,6 +293,12 @@ std::string diagnose_report_markdown(const DiagnoseResult& r, const std::vector<
            "diagnosis goes on with it (RMS error "
         << fmt(rd.error_before) << " → " << fmt(rd.error_after) << ").\n";
     }
+    s << "\n";
+  }
+  if (!r.dropped.empty()) {
+    s << "### Dropped after the rounds\n\nEach effect the rounds named was checked again: the named "
+         "effects refitted without it, cross-validated, against the same with it.\n\n";
+    for (const DroppedEffect& d : r.dropped) s << "- " << d.message << "\n";
     s << "\n";
   }
   s << disturbance_markdown(r.disturbance);

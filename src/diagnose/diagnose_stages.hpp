@@ -126,6 +126,23 @@ struct RoundModel {
   std::vector<EffectKind> named;    ///< the active effects (refitted with every candidate)
 };
 
+/// Backward elimination after the rounds (named work): while two or more of `eligible` (effects
+/// the rounds named, in model.named; a torque of time and the model given's effects are not
+/// eligible) are in the model, the named effects are refitted with the coefficient factors and
+/// cross-validated as they are and without each eligible one in turn; the one whose removal
+/// costs least is dropped when the model with it does not beat the model without it by the
+/// significance in both folds (beats(), the test that named it) and, the model without it
+/// settled on the whole fit runs (settle_winner()), the model with it is not lower over all
+/// runs by significance/2 (improves_all_runs()). `model` becomes the settled fit without it.
+/// Returns the effects dropped, in order.
+std::vector<DroppedEffect> drop_redundant_effects(const std::vector<DiagnoseRun>& runs_in,
+                                                  const PreparedRuns& prepared, RoundModel& model,
+                                                  const std::vector<EffectKind>& eligible,
+                                                  const DiagnoseOptions& opt);
+
+/// `e` without the effect `kind`: its parameters (modelling choices too) at their defaults.
+Effects without_effect(const Effects& e, EffectKind kind);
+
 /// The first round's model: the first run's effects (all runs share them), with the Coulomb
 /// smoothing ε at kFrictionSmoothingShareOfRmsVelocity of the RMS velocity when no Coulomb
 /// term is on; unit factors.

@@ -706,5 +706,45 @@ TEST(DiagnoseStages, AFrictionFitTakesItsSmoothingSharperOnlyWhenTheDataSwitchSh
   EXPECT_EQ(smooth.modelling_note, "") << smooth.message;
 }
 
+TEST(DiagnoseStages, AnEffectTheOthersMadeRedundantIsDroppedAfterTheRounds) {
+  // Hidden: Coulomb friction 0.025 V alone. A model that named an offset torque as well (as a
+  // round can when an effect named after it is still missing) refits without it as well as with
+  // it: the offset is dropped, the Coulomb friction kept. With an offset hidden too, neither is.
+  const auto dropped_from = [](double hidden_offset_v, std::vector<EffectKind>& named_after,
+                               Effects& effects_after) {
+    Effects hidden;
+    hidden.coulomb_v = 0.025;
+    hidden.coulomb_smoothing_rad_s = 0.001;
+    hidden.offset_v = hidden_offset_v;
+    const auto d = test::one_pose_diagnose_runs(hidden, 5);
+    DiagnoseOptions opt;
+    opt.simulation = d->fit.simulation;
+    const PreparedRuns prepared = prepare_runs(d->runs, opt);
+    RoundModel model = initial_model(d->runs, prepared);
+    model.effects.coulomb_v = 0.025;
+    model.effects.coulomb_smoothing_rad_s = 0.1 * model.effects.coulomb_smoothing_rad_s;
+    model.effects.offset_v = hidden_offset_v > 0.0 ? hidden_offset_v : 0.004;
+    model.named = {EffectKind::kOffsetTorque, EffectKind::kCoulombFriction};
+    const std::vector<DroppedEffect> out = drop_redundant_effects(d->runs, prepared, model, model.named, opt);
+    named_after = model.named;
+    effects_after = model.effects;
+    return out;
+  };
+  std::vector<EffectKind> named;
+  Effects e;
+  const std::vector<DroppedEffect> spurious = dropped_from(0.0, named, e);
+  ASSERT_EQ(spurious.size(), 1u);
+  EXPECT_EQ(spurious[0].effect, EffectKind::kOffsetTorque);
+  EXPECT_FALSE(spurious[0].score_with <= 0.9 * spurious[0].score_without) << spurious[0].message;
+  EXPECT_NE(spurious[0].message.find("offset_torque dropped after the rounds"), std::string::npos);
+  EXPECT_EQ(named, std::vector<EffectKind>{EffectKind::kCoulombFriction});
+  EXPECT_EQ(e.offset_v, 0.0);
+  EXPECT_NEAR(e.coulomb_v, 0.025, 0.2 * 0.025);
+  const std::vector<DroppedEffect> real = dropped_from(0.012, named, e);
+  EXPECT_TRUE(real.empty()) << real.front().message;
+  EXPECT_EQ(named.size(), 2u);
+  EXPECT_NEAR(e.offset_v, 0.012, 0.3 * 0.012);
+}
+
 }  // namespace
 }  // namespace alphainv::diagnose_detail

@@ -139,3 +139,8 @@ def test_diagnose_names_a_hidden_offset_torque():
         assert set(n["from"]) <= set(d.effects_named) and n["effect"] not in d.effects_named
         assert 0.999 <= n["share"] <= 1.0 and n["effect"] in n["message"]
     assert d.to_dict()["not_separable"] == d.not_separable
+    # effects the rounds named and the model then did without: not among the names
+    for x in d.dropped:
+        assert x["effect"] not in d.effects_named and x["effect"] in x["message"]
+        assert not x["score_with"] <= 0.9 * x["score_without"]
+    assert d.to_dict()["dropped"] == d.dropped

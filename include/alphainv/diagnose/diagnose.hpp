@@ -113,6 +113,9 @@ struct DiagnoseOptions {
   /// (discovered_term.hpp) fitted by sparse regression and output error, kept when it cuts the
   /// RMS over all runs by significance/2.
   bool discover = true;
+  /// After the rounds, with two or more effects named: each checked again against the model
+  /// without it (DiagnoseResult::dropped), the one that no longer earns its place dropped.
+  bool drop_redundant = true;
 
   /// Throws alphainv::Error naming the field (e.g. "significance", "candidates[2]") when a value
   /// is out of range: max_effects, max_fit_runs and max_residuals_per_run ≥ 1, fit_window_s
@@ -277,6 +280,17 @@ enum class DiagnoseTermination {
 /// "none named", "explained", "max effects", "invalid options", "invalid input", "failure".
 const char* termination_name(DiagnoseTermination termination);
 
+/// An effect a round named and the model then did without (backward elimination after the
+/// rounds: an effect named early, in a model without the effects named after it, can carry
+/// their share of the error until they are in; stepwise regression checks each term again so).
+struct DroppedEffect {
+  EffectKind effect = EffectKind::kNone;
+  /// Cross-validated RMS of θ − θ_sim of the named effects refitted with it and without it.
+  double score_with = std::numeric_limits<double>::quiet_NaN();
+  double score_without = std::numeric_limits<double>::quiet_NaN();
+  std::string message;  ///< in words, for the report
+};
+
 /// What diagnose() found. Like Ceres' Solver::Summary: whether it is usable (`ok`), why it
 /// stopped (`termination`, `message`), the error before and after, the rounds, the time, and a
 /// one-line and a multi-line report (report.md: diagnose_report.hpp).
@@ -309,6 +323,9 @@ struct DiagnoseResult {
   /// The last round's candidates the data cannot tell from the named effects (separability.hpp):
   /// not named, and not ruled out either.
   std::vector<NotSeparable> not_separable;
+  /// Effects the rounds named that the model did without in the end (not in effects_named nor
+  /// in `effects`; their rounds stay in `rounds`).
+  std::vector<DroppedEffect> dropped;
   std::vector<std::size_t> fit_runs;  ///< indices of the runs used to fit and score
   double seconds = 0.0;               ///< wall time
 
