@@ -402,7 +402,8 @@ std::string discovered_reading(const Effects& e) {
   const double tc = e.discovered_position_center_rad;
   if (s == Support{1} && c(1) < 0) return format("this is coulomb_friction: Fc = %.3g", -c(1));
   if (s == Support{0}) return format("this is offset_torque: d0 = %.3g", c(0));
-  if (s.size() == 2 && s[0] == 1 && s[1] >= 6 && s[1] <= 8 && c(1) < 0) {
+  // (Stribeck's form is a hump: the low-speed term opposes motion too, Fs > Fc)
+  if (s.size() == 2 && s[0] == 1 && s[1] >= 6 && s[1] <= 8 && c(1) < 0 && c(s[1]) < 0) {
     const double vs = kDiscoveredStribeckFractions[s[1] - 6] * vr;
     return format("this is stribeck_friction: Fc = %.3g, Fs = %.3g, v_s = %.3g", -c(1),
                   -(c(1) + c(s[1])), vs);
@@ -420,15 +421,17 @@ std::string discovered_reading(const Effects& e) {
   // No named form: what its terms are like.
   std::string words;
   auto add = [&](const std::string& w) { words += (words.empty() ? "" : "; ") + w; };
-  bool friction = false, stribeck = false, position = false, velocity = false;
+  bool friction = false, position = false, velocity = false;
+  double low_speed = 0.0;  // the low-speed terms' coefficients: < 0 a hump, > 0 a dip
   for (std::size_t k : s) {
     friction = friction || k == 1;
-    stribeck = stribeck || (k >= 6 && k <= 8);
+    if (k >= 6 && k <= 8) low_speed += c(k);
     position = position || k == 0 || k == 9 || k >= 11;
     velocity = velocity || (k >= 2 && k <= 5);
   }
   if (friction && c(1) < 0) add(format("a Coulomb-like level %.3g", -c(1)));
-  if (stribeck) add("a friction hump at low speed (Stribeck-like)");
+  if (low_speed < 0.0) add("a friction hump at low speed (Stribeck-like)");
+  if (low_speed > 0.0) add("less friction at low speed than at speed (a dip, not Stribeck's hump)");
   if (velocity) add("a velocity dependence beyond C(alpha)");
   if (std::find(s.begin(), s.end(), 10) != s.end()) add("friction varying along theta");
   if (position) add("a torque varying with theta");

@@ -111,6 +111,12 @@ TEST(DiscoveredReading, NamesTheMatchingForm) {
   EXPECT_EQ(discovered_reading(e), "this is coulomb_friction: Fc = 0.004");
   e.discovered_stribeck_fast_v = -0.006;  // breakaway 0.01 at v_s = 0.05·2
   EXPECT_EQ(discovered_reading(e), "this is stribeck_friction: Fc = 0.004, Fs = 0.01, v_s = 0.1");
+  // Less friction at low speed (Fs < Fc; here Fs < 0, a driving torque) is not Stribeck's hump
+  // (Coulomb friction + saturation, seed 41, read "Fc = 0.00473, Fs = -0.00525").
+  e.discovered_stribeck_fast_v = 0.01;
+  EXPECT_EQ(discovered_reading(e),
+            "no named form matches: a Coulomb-like level 0.004; less friction at low speed than at speed "
+            "(a dip, not Stribeck's hump)");
   e.discovered_stribeck_fast_v = 0.0;
   e.discovered_sign_pos_v = 0.0007;  // −σ(Fc0 + s θ): s = −0.0007/0.07
   EXPECT_EQ(discovered_reading(e), "this is position_dependent_friction: Fc0 = 0.004, s = -0.01");
