@@ -1378,11 +1378,10 @@ std::vector<DroppedEffect> drop_redundant_effects(const std::vector<DiagnoseRun>
       CandidateScore c =
           fitter.fit(EffectKind::kNone, reduced.effects, model.scales, model.alpha, true, true, nullptr);
       if (!c.ok || !c.cross_validated || beats(all, c, opt.significance)) continue;
-      // … and the whole runs agree (the test improves_all_runs() put to its naming): settled on
-      // the whole fit runs as a winner is, the model without it is not worse over all runs by
-      // significance/2.
+      // … and the whole runs agree (the test put to its naming): settled on the whole fit runs as
+      // a winner is, the model with it does not improve on the model without it over all runs.
       c = settle_winner(fitter, c);
-      if (!std::isfinite(c.error_after) || error_now <= (1.0 - 0.5 * opt.significance) * c.error_after) continue;
+      if (!std::isfinite(c.error_after) || improves_all_runs(error_now, c.error_after, opt.significance)) continue;
       if (!best || c.score < best->score) best = std::move(c), best_kind = k;
     }
     if (!best) break;
@@ -1647,9 +1646,13 @@ CandidateScore settle_winner(const CandidateFitter& fitter, const CandidateScore
   return settled;
 }
 
-bool improves_all_runs(const CandidateScore& settled, double error_before, double significance) {
+bool improves_all_runs(double error_after, double error_before, double significance) {
   // ... and the whole runs agree: the error over all samples of all runs drops too.
-  return settled.error_after <= (1.0 - 0.5 * significance) * error_before;
+  return error_after <= (1.0 - 0.5 * significance) * error_before;
+}
+
+bool improves_all_runs(const CandidateScore& settled, double error_before, double significance) {
+  return improves_all_runs(settled.error_after, error_before, significance);
 }
 
 bool pair_eligible(const CandidateScore& c, const RoundModel& model) {

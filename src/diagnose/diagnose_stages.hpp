@@ -425,6 +425,8 @@ CandidateScore settle_winner(const CandidateFitter& fitter, const CandidateScore
 
 /// The settled winner's RMS over all runs is at most (1 − significance/2) × the round's before.
 bool improves_all_runs(const CandidateScore& settled, double error_before, double significance);
+/// The same test on the two RMS values over all runs.
+bool improves_all_runs(double error_after, double error_before, double significance);
 
 /// Pairs fitted jointly by the fallback at most (each with the iteration limits of a single).
 inline constexpr std::size_t kMaxPairFits = 3;
