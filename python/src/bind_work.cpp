@@ -337,6 +337,7 @@ struct DiagnoseOutcome {
       d["none_across_gap"] = r.none_across_gap ? py::object(candidate(*r.none_across_gap)) : py::object(py::none());
       d["none_refitted"] = r.none_refitted;
       d["none_refit_how"] = r.none_refit_how;
+      d["after_dropping"] = r.after_dropping;  // run in a place the backward elimination freed
       d["took_in"] = effect_name(r.took_in);  // "none": it took in no earlier round's effect
       out.append(d);
     }

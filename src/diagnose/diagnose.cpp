@@ -949,6 +949,13 @@ RoundStart start_round(const std::vector<DiagnoseRun>& runs_in, const PreparedRu
                                opt.simulation);
   });
   s.torque_residual = torque_residual(runs, fit_runs, fit_sims, model.effects);
+  {
+    std::vector<double> rr(runs.size(), kNaN);
+    for (std::size_t i : fit_runs) {
+      if (fit_sims[i].ok) rr[i] = rms_of(*runs[i].data, fit_sims[i].theta);
+    }
+    s.model_fit_rms = pooled_rms(runs, rr, fit_runs);
+  }
   if (reid.usable()) {
     s.none_alpha = best_variant(reid, model.effects, runs, fit_runs, prepared.unit_scales, opt, true,
                                 model.alpha ? model.alpha : std::optional<AlphaModel>(runs_in.front().model.alpha),
@@ -1011,6 +1018,31 @@ CandidateSearch search_candidate(EffectKind kind, const PreparedRuns& prepared,
   }
   // Not searched: `none`, or no re-identification.
   out.effects = e;
+  return out;
+}
+
+CandidateSearch search_in_model(EffectKind kind, const PreparedRuns& prepared, const RoundModel& model,
+                                const RoundStart& start, const DiagnoseOptions& opt) {
+  const EffectSpec& spec = effect_spec(kind);
+  const DataScales& sc = prepared.scales;
+  CandidateSearch out;
+  out.effects = model.effects;
+  out.start_scales = model.scales;
+  out.alpha = model.alpha;
+  if (spec.equation_error_start != nullptr) {
+    equation_error_start(kind, start.torque_residual, sc, out.effects);
+  } else {
+    std::vector<double> values;
+    for (const auto& point : spec.search_grid(sc.effect(), param_block(kind, out.effects, sc).start))
+      values.push_back(point[0]);
+    if (values.empty()) return out;
+    out.effects.*(spec.parameters[0].member) =
+        scan_start(prepared.runs, prepared.fit_runs, out.effects, spec.parameters[0].member, values,
+                   model.scales, opt, model.alpha);
+  }
+  out.found_rms = pooled_rms(prepared.runs,
+                             run_rms_with(prepared.runs, prepared.fit_runs, out.effects, model.scales, opt, model.alpha),
+                             prepared.fit_runs);
   return out;
 }
 
@@ -1960,6 +1992,21 @@ DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const Prep
       // factors: it cannot be named, so it is not fitted further (saves its output error).
       if (std::isfinite(start.none_unit_rms) &&
           !(s.found_rms <= (1.0 - 0.5 * opt.significance) * start.none_unit_rms)) {
+        // The second way in (search_in_model()): the effect added to the model as it is, its
+        // α-model and factors; fitted by output error from there when that cuts the model's
+        // own error on the fit runs by significance/2.
+        const CandidateSearch m = search_in_model(kind, prepared, model, start, opt);
+        if (std::isfinite(start.model_fit_rms) &&
+            m.found_rms <= (1.0 - 0.5 * opt.significance) * start.model_fit_rms) {
+          CandidateScore fitted = fitter.fit(kind, m.effects, m.start_scales, m.alpha, false, false,
+                                             &pending[rd.candidates.size()]);
+          fitted.message = "searched in the model as it is (its α-model and factors: RMS over the fit runs " +
+                           num(m.found_rms, "%.4g") + " against " + num(start.model_fit_rms, "%.4g") +
+                           "), the search with the α-model re-identified not below (1 − significance/2) × "
+                           "that of none" + (fitted.message.empty() ? "" : "; " + fitted.message);
+          rd.candidates.push_back(fitted);
+          continue;
+        }
         rd.candidates.push_back(fitter.not_fitted(kind, s.effects, s.alpha, s.found_rms,
                                                   "search RMS not below (1 − significance/2) × "
                                                   "that of none: not fitted further"));
@@ -2235,106 +2282,143 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
   // the model), and the verdict on that model.
   res.noise_floor = estimate_noise_floor(residual_series(runs_in, sims0));
   res.verdict_before = judge_residual(residual_series(runs_in, sims0), res.noise_floor);
-  res.termination = DiagnoseTermination::kMaxEffects;
   // The verdict on the round's model (the pair fallback runs only while structure remains).
   ResidualVerdict verdict_now = res.verdict_before.verdict;
-  for (std::size_t named_so_far = 0; named_so_far < opt.max_effects;) {
-    CandidateScore settled;
-    std::string failure;
-    const bool pair_fallback = named_so_far + 2 <= opt.max_effects &&
-                               std::isfinite(res.noise_floor.rms) &&
-                               verdict_now == ResidualVerdict::kStructureRemains;
-    DiagnoseRound rd = diagnose_round(runs_in, prepared, model, reid, catalogue, opt, &settled,
-                                      &failure, pair_fallback);
-    const EffectKind named = rd.named;
-    const EffectKind named_second = rd.named_second;
-    res.rounds.push_back(std::move(rd));
-    if (!failure.empty()) {
-      res.termination = DiagnoseTermination::kFailure;
-      res.message = failure;
-      break;
-    }
-    if (named == EffectKind::kNone) {
-      DiagnoseRound& last = res.rounds.back();
-      // The model's own, refitted (DiagnoseRound::none_refitted), only when it explains the data
-      // to the noise floor and the model as it came (verdict_now) does not. Two refits, the
-      // first explained taken: `settled` (coefficient factors fitted by output error), and the
-      // α-model linear across the gap of the sine points' α as the sine points give it (unit
-      // factors): the factors' fit weighs the runs' transients, whose error near resonance can
-      // outweigh every sine run's gain and phase.
-      std::vector<std::pair<CandidateScore, std::string>> refits;
-      if (verdict_now != ResidualVerdict::kExplained) {
-        if (settled.ok && settled.effect == EffectKind::kNone) {
-          refits.emplace_back(settled, "its α-model re-identified from the sine runs, the coefficient "
-                                       "factors fitted by output error");
-        }
-        if (std::optional<AlphaModel> gap = reid.across_gap(model.effects)) {
-          CandidateScore c;
-          c.ok = true;
-          c.effects = model.effects;
-          c.scales = prepared.unit_scales;
-          c.alpha = std::move(gap);
-          refits.emplace_back(std::move(c), "the α-model linear across the widest gap of the sine points' α, "
-                                            "as the sine points give it (unit coefficient factors)");
-        }
-      }
-      for (auto& [c, how] : refits) {
-        const auto sims = simulate_diagnosed(runs_in, c.effects, c.scales, opt.simulation, opt.threads, c.alpha);
-        const std::vector<ResidualSeries> series = residual_series(runs_in, sims);
-        double ss = 0.0, n = 0.0;
-        for (const ResidualSeries& r : series) {
-          for (double e : r.residual) ss += e * e, n += 1.0;
-        }
-        c.error_after = n > 0.0 ? std::sqrt(ss / n) : kInf;
-        if (!(c.error_after < last.error_before)) continue;
-        if (judge_residual(series, res.noise_floor).verdict != ResidualVerdict::kExplained) continue;
-        last.none_refitted = true;
-        last.none_refit_how = how;
-        last.error_after = c.error_after;
-        model.effects = c.effects;
-        model.scales = c.scales;
-        model.alpha = c.alpha;
+  std::size_t named_so_far = 0;
+  // The rounds (forward steps) over `cat`: while an effect is named, structure remains and
+  // max_effects leaves room. `after_dropping`: a pass after the backward elimination freed places.
+  const auto run_rounds = [&](const std::vector<EffectKind>& cat, bool after_dropping) {
+    res.termination = DiagnoseTermination::kMaxEffects;
+    for (; named_so_far < opt.max_effects;) {
+      CandidateScore settled;
+      std::string failure;
+      const bool pair_fallback = named_so_far + 2 <= opt.max_effects &&
+                                 std::isfinite(res.noise_floor.rms) &&
+                                 verdict_now == ResidualVerdict::kStructureRemains;
+      DiagnoseRound rd = diagnose_round(runs_in, prepared, model, reid, cat, opt, &settled,
+                                        &failure, pair_fallback);
+      rd.after_dropping = after_dropping;
+      const EffectKind named = rd.named;
+      const EffectKind named_second = rd.named_second;
+      res.rounds.push_back(std::move(rd));
+      if (!failure.empty()) {
+        res.termination = DiagnoseTermination::kFailure;
+        res.message = failure;
         break;
       }
-      res.termination = DiagnoseTermination::kNoneNamed;
-      break;
-    }
-    // The named effect stays in the model (and is refitted in the next round).
-    model.effects = settled.effects;
-    model.scales = settled.scales;
-    model.alpha = settled.alpha;
-    for (EffectKind k : {named, named_second}) {
-      if (k == EffectKind::kNone) continue;
-      model.named.push_back(k);
-      res.effects_named.push_back(k);
-      ++named_so_far;
-      // A generalisation named on top of the effect it generalises (tried so from the round
-      // after that one was named: try_refinements()) takes it in: one term of its form.
-      // (the effect taken in may be the model given's, in model.named but never in effects_named)
-      if (const auto x = diagnose_detail::take_in_parent(k, model.effects, model.named)) {
-        model.named.erase(std::find(model.named.begin(), model.named.end(), *x));
-        const auto was_named = std::find(res.effects_named.begin(), res.effects_named.end(), *x);
-        if (was_named != res.effects_named.end()) res.effects_named.erase(was_named);
-        res.rounds.back().took_in = *x;
-      }
-    }
-    if (named_so_far < opt.max_effects) {
-      // Another round only while structure remains.
-      const auto sims = simulate_diagnosed(runs_in, model.effects, model.scales, opt.simulation,
-                                           opt.threads, model.alpha);
-      verdict_now = judge_residual(residual_series(runs_in, sims), res.noise_floor).verdict;
-      if (verdict_now == ResidualVerdict::kExplained) {
-        res.termination = DiagnoseTermination::kExplained;
+      if (named == EffectKind::kNone) {
+        DiagnoseRound& last = res.rounds.back();
+        // The model's own, refitted (DiagnoseRound::none_refitted), only when it explains the data
+        // to the noise floor and the model as it came (verdict_now) does not. Two refits, the
+        // first explained taken: `settled` (coefficient factors fitted by output error), and the
+        // α-model linear across the gap of the sine points' α as the sine points give it (unit
+        // factors): the factors' fit weighs the runs' transients, whose error near resonance can
+        // outweigh every sine run's gain and phase.
+        std::vector<std::pair<CandidateScore, std::string>> refits;
+        if (verdict_now != ResidualVerdict::kExplained) {
+          if (settled.ok && settled.effect == EffectKind::kNone) {
+            refits.emplace_back(settled, "its α-model re-identified from the sine runs, the coefficient "
+                                         "factors fitted by output error");
+          }
+          if (std::optional<AlphaModel> gap = reid.across_gap(model.effects)) {
+            CandidateScore c;
+            c.ok = true;
+            c.effects = model.effects;
+            c.scales = prepared.unit_scales;
+            c.alpha = std::move(gap);
+            refits.emplace_back(std::move(c), "the α-model linear across the widest gap of the sine points' α, "
+                                              "as the sine points give it (unit coefficient factors)");
+          }
+        }
+        for (auto& [c, how] : refits) {
+          const auto sims = simulate_diagnosed(runs_in, c.effects, c.scales, opt.simulation, opt.threads, c.alpha);
+          const std::vector<ResidualSeries> series = residual_series(runs_in, sims);
+          double ss = 0.0, n = 0.0;
+          for (const ResidualSeries& r : series) {
+            for (double e : r.residual) ss += e * e, n += 1.0;
+          }
+          c.error_after = n > 0.0 ? std::sqrt(ss / n) : kInf;
+          if (!(c.error_after < last.error_before)) continue;
+          if (judge_residual(series, res.noise_floor).verdict != ResidualVerdict::kExplained) continue;
+          last.none_refitted = true;
+          last.none_refit_how = how;
+          last.error_after = c.error_after;
+          model.effects = c.effects;
+          model.scales = c.scales;
+          model.alpha = c.alpha;
+          break;
+        }
+        res.termination = DiagnoseTermination::kNoneNamed;
         break;
       }
+      // The named effect stays in the model (and is refitted in the next round).
+      model.effects = settled.effects;
+      model.scales = settled.scales;
+      model.alpha = settled.alpha;
+      for (EffectKind k : {named, named_second}) {
+        if (k == EffectKind::kNone) continue;
+        model.named.push_back(k);
+        res.effects_named.push_back(k);
+        ++named_so_far;
+        // A generalisation named on top of the effect it generalises (tried so from the round
+        // after that one was named: try_refinements()) takes it in: one term of its form.
+        // (the effect taken in may be the model given's, in model.named but never in effects_named)
+        if (const auto x = diagnose_detail::take_in_parent(k, model.effects, model.named)) {
+          model.named.erase(std::find(model.named.begin(), model.named.end(), *x));
+          const auto was_named = std::find(res.effects_named.begin(), res.effects_named.end(), *x);
+          if (was_named != res.effects_named.end()) res.effects_named.erase(was_named);
+          res.rounds.back().took_in = *x;
+        }
+      }
+      if (named_so_far < opt.max_effects) {
+        // Another round only while structure remains.
+        const auto sims = simulate_diagnosed(runs_in, model.effects, model.scales, opt.simulation,
+                                             opt.threads, model.alpha);
+        verdict_now = judge_residual(residual_series(runs_in, sims), res.noise_floor).verdict;
+        if (verdict_now == ResidualVerdict::kExplained) {
+          res.termination = DiagnoseTermination::kExplained;
+          break;
+        }
+      }
     }
-  }
+  };
+  run_rounds(catalogue, false);
   // --- named work (backward elimination): an effect named early, before the effects named
   // after it were in the model, may no longer earn its place (drop_redundant_effects()).
+  // Then, when it dropped one and structure remains, the rounds once more without the dropped
+  // (forward-backward stepwise): the effect the dropped one stood in for may now be found in the
+  // freed place (gravity + a 4 ms delay: Coulomb friction named first, dropped after gravity;
+  // the delay then named). Once: a dropped effect does not come back, so it cannot cycle.
   if (res.termination != DiagnoseTermination::kFailure && opt.drop_redundant) {
     res.dropped = drop_redundant_effects(runs_in, prepared, model, res.effects_named, opt);
     for (const DroppedEffect& d : res.dropped)
       res.effects_named.erase(std::find(res.effects_named.begin(), res.effects_named.end(), d.effect));
+    if (!res.dropped.empty() && named_so_far >= res.dropped.size()) {
+      named_so_far -= res.dropped.size();
+      const auto sims = simulate_diagnosed(runs_in, model.effects, model.scales, opt.simulation,
+                                           opt.threads, model.alpha);
+      verdict_now = judge_residual(residual_series(runs_in, sims), res.noise_floor).verdict;
+      if (verdict_now == ResidualVerdict::kStructureRemains && named_so_far < opt.max_effects) {
+        std::vector<EffectKind> rest;
+        for (EffectKind k : catalogue) {
+          if (std::none_of(res.dropped.begin(), res.dropped.end(),
+                           [&](const DroppedEffect& d) { return d.effect == k; }))
+            rest.push_back(k);
+        }
+        const std::size_t before = res.effects_named.size();
+        run_rounds(rest, true);
+        // The effects named in the freed places are checked as the others were (not the
+        // dropped again: they are out of the catalogue).
+        if (res.termination != DiagnoseTermination::kFailure && res.effects_named.size() > before) {
+          for (DroppedEffect& d : drop_redundant_effects(runs_in, prepared, model, res.effects_named, opt)) {
+            res.effects_named.erase(std::find(res.effects_named.begin(), res.effects_named.end(), d.effect));
+            res.dropped.push_back(std::move(d));
+          }
+        }
+      } else if (verdict_now == ResidualVerdict::kExplained) {
+        res.termination = DiagnoseTermination::kExplained;
+      }
+    }
   }
   // --- a provisional estimate judged again, with the effects the rounds named: named when the
   // error over the runs it touches drops by the significance with it known; else the rounds

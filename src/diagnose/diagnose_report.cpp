@@ -187,7 +187,7 @@ std::string DiagnoseResult::full_report() const {
   for (std::size_t round = 0; round < rounds.size(); ++round) {
     const DiagnoseRound& rd = rounds[round];
     s << "Round " << round + 1 << ": " << round_named_text(rd) << " (RMS " << fmt(rd.error_before)
-      << " → " << fmt(rd.error_after) << ")\n"
+      << " → " << fmt(rd.error_after) << ")" << (rd.after_dropping ? " after an effect was dropped" : "") << "\n"
       << table_line("effect (* named)", "score (CV)", "fold 1", "fold 2", "RMS after",
                     "parameters; note");
     for (const CandidateScore& c : rd.candidates) {
@@ -244,7 +244,8 @@ std::string diagnose_report_markdown(const DiagnoseResult& r, const std::vector<
   for (std::size_t round = 0; round < r.rounds.size(); ++round) {
     const DiagnoseRound& rd = r.rounds[round];
     s << "### Round " << round + 1 << ": " << round_named_text(rd) << " (RMS error "
-      << fmt(rd.error_before) << " → " << fmt(rd.error_after) << ")\n\n"
+      << fmt(rd.error_before) << " → " << fmt(rd.error_after) << ")"
+      << (rd.after_dropping ? ", after an effect was dropped (below): in the place it freed" : "") << "\n\n"
       << "| effect | score (CV RMS) | fold 1 | fold 2 | RMS after, all runs | parameters | note |\n"
          "|---|---|---|---|---|---|---|\n";
     for (const auto& c : rd.candidates) {

@@ -55,12 +55,11 @@ std::vector<NotSeparable> not_separable(const Effects& model, const std::vector<
     if (kind == EffectKind::kNone || effect_spec(kind).role != EffectRole::kTorque) continue;
     if (std::find(named.begin(), named.end(), kind) != named.end()) continue;
     // Nested forms (a generalisation and the effect it generalises, EffectSpec::generalises):
-    // whether the extra parameters earn their place is the rounds' test; a generalisation fitted
-    // back to its parent's form is that form, not a confusion with it.
-    const bool nested = std::any_of(named.begin(), named.end(), [&](EffectKind k) {
+    // one spanned by its nested named effect alone is that form (an asymmetric friction fitted
+    // symmetric is the Coulomb friction named), not a confusion with it: skipped below.
+    const auto nested_with = [&](EffectKind k) {
       return effect_spec(kind).generalises(k) || effect_spec(k).generalises(kind);
-    });
-    if (nested) continue;
+    };
     Effects only;  // the candidate's own term alone
     for (const auto& par : effect_parameters(kind, true)) only.*(par.member) = fitted.*(par.member);
     std::vector<double> y(n);
@@ -92,12 +91,23 @@ std::vector<NotSeparable> not_separable(const Effects& model, const std::vector<
         if (column_kind[j] == k) own.push_back(columns[j]);
       if (spanned_share(y, own) >= share) ns.from.push_back(k);
     }
+    if (std::any_of(ns.from.begin(), ns.from.end(), nested_with)) continue;  // that form itself
     if (ns.from.empty()) {  // only together
       for (EffectKind k : named)
         if (std::find(column_kind.begin(), column_kind.end(), k) != column_kind.end()) ns.from.push_back(k);
     }
     for (EffectKind k : ns.from) names += (names.empty() ? "" : " + ") + std::string(effect_name(k));
-    ns.message = std::string(effect_name(kind)) + " is not separable from " + names +
+    // A generalisation of a named effect that the others make up: its part beyond that form (an
+    // asymmetric friction's asymmetry, a constant while moving) is what they take up (gravity's
+    // θ0 over a small stroke).
+    std::string beyond;
+    for (EffectKind k : named) {
+      if (effect_spec(kind).generalises(k)) {
+        beyond = std::string(" (its part beyond ") + effect_name(k) + "'s form is taken up by the others)";
+        break;
+      }
+    }
+    ns.message = std::string(effect_name(kind)) + " is not separable from " + names + beyond +
                  " on these data: its torque lies within what refitting " + names +
                  " makes (share " + common::format("%.5f", r2) + " of its energy over the fit runs' states), so they fit "
                  "these data alike with or without it; runs over other states (a wider stroke, "

@@ -178,6 +178,30 @@ TEST(DiagnoseStages, SearchFindsTheHiddenOffsetLowest) {
   EXPECT_EQ(none.alpha->alpha, start.none_alpha->alpha);
 }
 
+TEST(DiagnoseStages, SearchInTheModelAsItIsAddsTheEffectToTheModelsOwnAlphaModelAndFactors) {
+  // search_in_model(): the second way in when the search with the α-model re-identified did not
+  // reach `none`'s best variant. The model as it is here: the offset case's (the runs' own
+  // α-model and its unit coefficient factors).
+  const OffsetCase& c = offset_case();
+  const Reidentifier reid(c.runs, c.opt.simulation.loop_period_s);
+  const RoundModel& model = c.model;
+  const RoundStart start = start_round(c.runs, c.prepared, model, reid, c.opt);
+  ASSERT_TRUE(std::isfinite(start.model_fit_rms));
+  const CandidateSearch offset = search_in_model(EffectKind::kOffsetTorque, c.prepared, model, start, c.opt);
+  EXPECT_FALSE(offset.searched);  // started for an output-error fit from the model's own
+  EXPECT_EQ(offset.start_scales.c, model.scales.c);
+  EXPECT_EQ(offset.alpha.has_value(), model.alpha.has_value());
+  // The equation-error start finds the hidden 0.02 V and cuts the model's error on the fit runs.
+  EXPECT_NEAR(offset.effects.offset_v, 0.02, 0.25 * 0.02);
+  EXPECT_LT(offset.found_rms, 0.5 * start.model_fit_rms) << offset.found_rms << " against " << start.model_fit_rms;
+  // An effect not hidden, scanned over its grid (no equation-error start), does not pass the
+  // second way's test (1 − significance/2 of the model's own error).
+  const CandidateSearch delay = search_in_model(EffectKind::kTimeDelay, c.prepared, model, start, c.opt);
+  EXPECT_GT(delay.effects.delay_s, 0.0);
+  EXPECT_FALSE(delay.found_rms <= (1.0 - 0.5 * c.opt.significance) * start.model_fit_rms)
+      << delay.found_rms << " against " << start.model_fit_rms;
+}
+
 TEST(DiagnoseStages, FitAndCrossValidateScoreTheOffsetBelowNoneAndSettleIt) {
   // Without re-identification: the offset starts from the equation-error regression on the
   // torque residual and is fitted by output error with the model's factors.

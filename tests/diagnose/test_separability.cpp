@@ -110,6 +110,39 @@ TEST(Separability, ALongCoggingIsGravitysAndNestedFormsAreNotChecked) {
                   .empty());
 }
 
+TEST(Separability, AGeneralisationTheNamedMakeUpTogetherIsSaid) {
+  // Named: Coulomb friction and gravity. An asymmetric friction Fc⁺ = 0.02, Fc⁻ = 0.01 V (no
+  // viscous difference, the same ε) is −σ·(0.015 + 0.005·σ) = −0.015·σ − 0.005·σ²: Coulomb's
+  // σ and, where |θ̇| ≫ ε (σ² = 1), a constant, which gravity's θ0 makes over ±0.07 rad. So it
+  // is not separable from the two together, though nested with Coulomb friction.
+  Effects model;
+  model.coulomb_v = 0.015, model.coulomb_smoothing_rad_s = 1e-3;
+  model.gravity_v = 0.27, model.gravity_theta0_rad = 0.02;
+  Effects asym;
+  asym.asymmetric_coulomb_pos_v = 0.02, asym.asymmetric_coulomb_neg_v = 0.01;
+  asym.asymmetric_smoothing_rad_s = 1e-3;
+  std::vector<double> th, thd;
+  sine_states(0.07, th, thd);  // |θ̇| ≤ 0.44 rad/s; below ε = 1 mrad/s at about 0.2 % of the samples
+  const std::vector<EffectKind> named = {EffectKind::kCoulombFriction, EffectKind::kGravity};
+  const std::vector<NotSeparable> ns = not_separable(model, named, {{EffectKind::kAsymmetricFriction, asym}}, th, thd);
+  ASSERT_EQ(ns.size(), 1u);
+  EXPECT_EQ(ns[0].effect, EffectKind::kAsymmetricFriction);
+  EXPECT_EQ(ns[0].from, named);
+  EXPECT_GT(ns[0].share, 0.999);
+  EXPECT_NE(ns[0].message.find("beyond coulomb_friction's form is taken up"), std::string::npos) << ns[0].message;
+  // Coulomb friction alone spans its symmetric part only (0.015² against 0.005²: 90 %).
+  EXPECT_TRUE(not_separable(model, {EffectKind::kCoulombFriction}, {{EffectKind::kAsymmetricFriction, asym}}, th, thd)
+                  .empty());
+  // Over ±1.5 rad gravity's sensitivities are no constant: its own again.
+  sine_states(1.5, th, thd);
+  EXPECT_TRUE(not_separable(model, named, {{EffectKind::kAsymmetricFriction, asym}}, th, thd).empty());
+  // A viscous difference of the same size as its levels (Δb/2·|θ̇|, no term the named make)
+  // separates it over the small stroke too.
+  sine_states(0.07, th, thd);
+  asym.asymmetric_viscous_diff_v_s = 0.1;
+  EXPECT_TRUE(not_separable(model, named, {{EffectKind::kAsymmetricFriction, asym}}, th, thd).empty());
+}
+
 TEST(Separability, SpannedOnlyByTwoNamedTogetherNamesBoth) {
   // Three distinct states, θ = 0, 1, 2 rad with θ̇ = +1, −1, +1 rad/s (|θ̇| ≫ ε: the Coulomb term
   // is −Fc·(1, −1, 1)). Named: Coulomb friction and gravity (θ0 = 0: its sensitivities −sin θ and

@@ -133,6 +133,7 @@ def test_diagnose_names_a_hidden_offset_torque():
     assert first["named"] == "offset_torque"
     # a named round keeps its model: not `none` refitted
     assert first["none_refitted"] is False and first["none_refit_how"] == ""
+    assert first["after_dropping"] is False
     assert first["took_in"] == "none"  # an offset generalises nothing
     # candidates the data cannot tell from the named effects: spanned by named ones only
     for n in d.not_separable:

@@ -224,6 +224,9 @@ struct DiagnoseRound {
   /// explained, the refit may trade the sine runs' gains and phases (each exact in the sine
   /// points) for the other runs'.
   bool none_refitted = false;
+  /// A round run after the backward elimination dropped an effect (DiagnoseResult::dropped),
+  /// with the place it freed and without the dropped in the catalogue.
+  bool after_dropping = false;
   /// With none_refitted: which refit, in words (for the report).
   std::string none_refit_how;
   /// The effect already in the model (named in an earlier round, or the model given's) this

@@ -40,9 +40,12 @@ double spanned_share(const std::vector<double>& y, const std::vector<std::vector
 /// torque over the states (θ, θ̇) is spanned to at least `share` by the sensitivities ∂n/∂p of the
 /// named effects' fitted parameters at `model` (central differences). A candidate fitted to no
 /// torque (its level taken up by the named effects) is checked in its form at unit magnitude
-/// (its first parameter 1, its shape as fitted). Candidates that are named, not torques of the
-/// state, or nested with a named effect (EffectSpec::generalises, either way: an asymmetric
-/// friction fitted symmetric is the Coulomb friction named, not a confusion with it) are skipped.
+/// (its first parameter 1, its shape as fitted). Candidates that are named or not torques of the
+/// state are skipped, and so is one spanned by a named effect it is nested with alone
+/// (EffectSpec::generalises, either way: an asymmetric friction fitted symmetric is the Coulomb
+/// friction named, not a confusion with it). A generalisation spanned only by its nested named
+/// effect and others together is said (an asymmetric friction Fc⁺ ≠ Fc⁻ is a Coulomb friction
+/// plus a constant while moving, which gravity's θ0 takes up over a small stroke).
 std::vector<NotSeparable> not_separable(const Effects& model, const std::vector<EffectKind>& named,
                                         const std::vector<std::pair<EffectKind, Effects>>& candidates,
                                         const std::vector<double>& theta, const std::vector<double>& theta_dot,
