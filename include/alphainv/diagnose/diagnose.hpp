@@ -114,7 +114,9 @@ struct DiagnoseOptions {
   /// RMS over all runs by significance/2.
   bool discover = true;
   /// After the rounds, with two or more effects named: each checked again against the model
-  /// without it (DiagnoseResult::dropped), the one that no longer earns its place dropped.
+  /// without it (DiagnoseResult::dropped), the one that no longer earns its place dropped; when
+  /// one was dropped and structure remains, the rounds run once more in the place it freed,
+  /// without the dropped in the catalogue (DiagnoseRound::after_dropping).
   bool drop_redundant = true;
 
   /// Throws alphainv::Error naming the field (e.g. "significance", "candidates[2]") when a value
