@@ -318,11 +318,11 @@ std::vector<double> run_rms_with(const std::vector<DiagnoseRun>& runs,
 }
 
 /// A 1-D scan of one parameter's start (delay, saturation, deadzone): the value of `values` with
-/// the lowest pooled RMS over the fit runs.
+/// the lowest pooled RMS over the fit runs (that RMS in `*best_rms_out` when given).
 double scan_start(const std::vector<DiagnoseRun>& runs, const std::vector<std::size_t>& fit_runs,
                   Effects e, double Effects::*member, const std::vector<double>& values,
                   const ModelScales& ms, const DiagnoseOptions& opt,
-                  const std::optional<AlphaModel>& alpha) {
+                  const std::optional<AlphaModel>& alpha, double* best_rms_out) {
   double best = values.front(), best_rms = kInf;
   for (double x : values) {
     e.*member = x;
@@ -332,6 +332,7 @@ double scan_start(const std::vector<DiagnoseRun>& runs, const std::vector<std::s
       best = x;
     }
   }
+  if (best_rms_out != nullptr) *best_rms_out = best_rms;
   return best;
 }
 
@@ -973,22 +974,14 @@ CandidateSearch search_candidate(EffectKind kind, const PreparedRuns& prepared,
   CandidateSearch out;
   // Starts of the new effect.
   Effects e = model.effects;
-  {
-    const EffectSpec& spec = effect_spec(kind);
-    if (spec.equation_error_start != nullptr) {
-      equation_error_start(kind, start.torque_residual, sc, e);
-      // Without re-identification (no sine runs) gravity's phase is searched globally here.
-      if (kind == EffectKind::kGravity && !reid.usable())
-        e = global_gravity_start(runs, fit_runs, e, model.scales, sc, opt, model.alpha);
-    } else if (kind != EffectKind::kNone && !reid.usable()) {
-      // No regression for it: its first parameter scanned over the search grid (without
-      // re-identification; with it, the search below scans).
-      std::vector<double> values;
-      for (const auto& point : spec.search_grid(sc.effect(), param_block(kind, e, sc).start))
-        values.push_back(point[0]);
-      e.*(spec.parameters[0].member) = scan_start(runs, fit_runs, e, spec.parameters[0].member,
-                                                  values, model.scales, opt, model.alpha);
-    }
+  if (!reid.usable()) {
+    e = start_in_model(kind, prepared, model, start, opt);
+    // Without re-identification (no sine runs) gravity's phase is searched globally here.
+    if (kind == EffectKind::kGravity)
+      e = global_gravity_start(runs, fit_runs, e, model.scales, sc, opt, model.alpha);
+  } else if (effect_spec(kind).equation_error_start != nullptr) {
+    // (with re-identification the search below scans)
+    equation_error_start(kind, start.torque_residual, sc, e);
   }
   // The new effect's parameters searched with the α-model re-identified for each value
   // (Reidentifier); its output-error fit then starts from the best (after every search).
@@ -1021,28 +1014,38 @@ CandidateSearch search_candidate(EffectKind kind, const PreparedRuns& prepared,
   return out;
 }
 
-CandidateSearch search_in_model(EffectKind kind, const PreparedRuns& prepared, const RoundModel& model,
-                                const RoundStart& start, const DiagnoseOptions& opt) {
+Effects start_in_model(EffectKind kind, const PreparedRuns& prepared, const RoundModel& model,
+                       const RoundStart& start, const DiagnoseOptions& opt, double* scanned_rms) {
   const EffectSpec& spec = effect_spec(kind);
   const DataScales& sc = prepared.scales;
+  Effects e = model.effects;
+  if (spec.equation_error_start != nullptr) {
+    equation_error_start(kind, start.torque_residual, sc, e);
+  } else if (kind != EffectKind::kNone) {
+    // No regression for it: its first parameter scanned over the search grid.
+    std::vector<double> values;
+    for (const auto& point : spec.search_grid(sc.effect(), param_block(kind, e, sc).start))
+      values.push_back(point[0]);
+    if (values.empty()) return e;
+    e.*(spec.parameters[0].member) = scan_start(prepared.runs, prepared.fit_runs, e, spec.parameters[0].member,
+                                                values, model.scales, opt, model.alpha, scanned_rms);
+  }
+  return e;
+}
+
+CandidateSearch search_in_model(EffectKind kind, const PreparedRuns& prepared, const RoundModel& model,
+                                const RoundStart& start, const DiagnoseOptions& opt) {
   CandidateSearch out;
-  out.effects = model.effects;
+  double scanned_rms = kNaN;  // (the scan's RMS at the value it chose: not simulated again)
+  out.effects = start_in_model(kind, prepared, model, start, opt, &scanned_rms);
   out.start_scales = model.scales;
   out.alpha = model.alpha;
-  if (spec.equation_error_start != nullptr) {
-    equation_error_start(kind, start.torque_residual, sc, out.effects);
-  } else {
-    std::vector<double> values;
-    for (const auto& point : spec.search_grid(sc.effect(), param_block(kind, out.effects, sc).start))
-      values.push_back(point[0]);
-    if (values.empty()) return out;
-    out.effects.*(spec.parameters[0].member) =
-        scan_start(prepared.runs, prepared.fit_runs, out.effects, spec.parameters[0].member, values,
-                   model.scales, opt, model.alpha);
-  }
-  out.found_rms = pooled_rms(prepared.runs,
-                             run_rms_with(prepared.runs, prepared.fit_runs, out.effects, model.scales, opt, model.alpha),
-                             prepared.fit_runs);
+  out.found_rms = std::isfinite(scanned_rms)
+                      ? scanned_rms
+                      : pooled_rms(prepared.runs,
+                                   run_rms_with(prepared.runs, prepared.fit_runs, out.effects, model.scales, opt,
+                                                model.alpha),
+                                   prepared.fit_runs);
   return out;
 }
 
@@ -2284,6 +2287,12 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
   res.verdict_before = judge_residual(residual_series(runs_in, sims0), res.noise_floor);
   // The verdict on the round's model (the pair fallback runs only while structure remains).
   ResidualVerdict verdict_now = res.verdict_before.verdict;
+  // The verdict on the model as it is now, over all runs.
+  const auto verdict_of_model = [&] {
+    const auto sims =
+        simulate_diagnosed(runs_in, model.effects, model.scales, opt.simulation, opt.threads, model.alpha);
+    return judge_residual(residual_series(runs_in, sims), res.noise_floor).verdict;
+  };
   std::size_t named_so_far = 0;
   // The rounds (forward steps) over `cat`: while an effect is named, structure remains and
   // max_effects leaves room. `after_dropping`: a pass after the backward elimination freed places.
@@ -2372,9 +2381,7 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
       }
       if (named_so_far < opt.max_effects) {
         // Another round only while structure remains.
-        const auto sims = simulate_diagnosed(runs_in, model.effects, model.scales, opt.simulation,
-                                             opt.threads, model.alpha);
-        verdict_now = judge_residual(residual_series(runs_in, sims), res.noise_floor).verdict;
+        verdict_now = verdict_of_model();
         if (verdict_now == ResidualVerdict::kExplained) {
           res.termination = DiagnoseTermination::kExplained;
           break;
@@ -2389,15 +2396,18 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
   // (forward-backward stepwise): the effect the dropped one stood in for may now be found in the
   // freed place (gravity + a 4 ms delay: Coulomb friction named first, dropped after gravity;
   // the delay then named). Once: a dropped effect does not come back, so it cannot cycle.
-  if (res.termination != DiagnoseTermination::kFailure && opt.drop_redundant) {
-    res.dropped = drop_redundant_effects(runs_in, prepared, model, res.effects_named, opt);
-    for (const DroppedEffect& d : res.dropped)
+  // The effects drop_redundant_effects() drops, out of effects_named and into `dropped`.
+  const auto drop_redundant = [&] {
+    for (DroppedEffect& d : drop_redundant_effects(runs_in, prepared, model, res.effects_named, opt)) {
       res.effects_named.erase(std::find(res.effects_named.begin(), res.effects_named.end(), d.effect));
+      res.dropped.push_back(std::move(d));
+    }
+  };
+  if (res.termination != DiagnoseTermination::kFailure && opt.drop_redundant) {
+    drop_redundant();
     if (!res.dropped.empty() && named_so_far >= res.dropped.size()) {
       named_so_far -= res.dropped.size();
-      const auto sims = simulate_diagnosed(runs_in, model.effects, model.scales, opt.simulation,
-                                           opt.threads, model.alpha);
-      verdict_now = judge_residual(residual_series(runs_in, sims), res.noise_floor).verdict;
+      verdict_now = verdict_of_model();
       if (verdict_now == ResidualVerdict::kStructureRemains && named_so_far < opt.max_effects) {
         std::vector<EffectKind> rest;
         for (EffectKind k : catalogue) {
@@ -2409,12 +2419,8 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
         run_rounds(rest, true);
         // The effects named in the freed places are checked as the others were (not the
         // dropped again: they are out of the catalogue).
-        if (res.termination != DiagnoseTermination::kFailure && res.effects_named.size() > before) {
-          for (DroppedEffect& d : drop_redundant_effects(runs_in, prepared, model, res.effects_named, opt)) {
-            res.effects_named.erase(std::find(res.effects_named.begin(), res.effects_named.end(), d.effect));
-            res.dropped.push_back(std::move(d));
-          }
-        }
+        if (res.termination != DiagnoseTermination::kFailure && res.effects_named.size() > before)
+          drop_redundant();
       } else if (verdict_now == ResidualVerdict::kExplained) {
         res.termination = DiagnoseTermination::kExplained;
       }
@@ -2463,10 +2469,7 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
   // effects, a sparse term for the rest, fitted on the fit runs, judged on all runs ---------
   if (opt.discover && res.termination != DiagnoseTermination::kFailure &&
       res.termination != DiagnoseTermination::kExplained) {
-    const auto sims = simulate_diagnosed(runs_in, model.effects, model.scales, opt.simulation,
-                                         opt.threads, model.alpha);
-    if (judge_residual(residual_series(runs_in, sims), res.noise_floor).verdict ==
-        ResidualVerdict::kStructureRemains) {
+    if (verdict_of_model() == ResidualVerdict::kStructureRemains) {
       // Regressed on the fit windows, refined by output error on the whole fit runs: refined on
       // the windows' steady state the term made the error over all runs worse on every invented
       // effect (docs/diagnose.md); regressed on the whole runs, n̂'s start transients hid a

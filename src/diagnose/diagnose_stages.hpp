@@ -263,9 +263,15 @@ CandidateSearch search_candidate(EffectKind kind, const PreparedRuns& prepared,
                                  const RoundModel& model, const RoundStart& start,
                                  const Reidentifier& reid, const DiagnoseOptions& options);
 
-/// The new effect `kind` in the round's model as it is: its start as without re-identification
-/// (the equation-error start, or its first parameter scanned over the search grid) with the
-/// model's α-model and coefficient factors, and `found_rms` its RMS over the fit runs there.
+/// The new effect `kind`'s start in the round's model as it is, as without re-identification:
+/// the equation-error start, or its first parameter scanned over the search grid with the
+/// model's α-model and coefficient factors (`*scanned_rms`, when given and scanned: the fit
+/// runs' RMS at the value chosen). search_candidate() without re-identification starts there.
+Effects start_in_model(EffectKind kind, const PreparedRuns& prepared, const RoundModel& model,
+                       const RoundStart& start, const DiagnoseOptions& options, double* scanned_rms = nullptr);
+
+/// The new effect `kind` in the round's model as it is: start_in_model() with the model's
+/// α-model and coefficient factors, and `found_rms` its RMS over the fit runs there.
 /// The second way in for a candidate whose search with the α-model re-identified did not reach
 /// (1 − significance/2) of `none`'s best variant: in a round after the first the re-identified
 /// α-model (unit factors) can be far from the model's own with its factors (gravity named, a
