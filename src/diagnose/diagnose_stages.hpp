@@ -448,6 +448,11 @@ CandidateScore settle_winner(const CandidateFitter& fitter, const CandidateScore
 bool improves_all_runs(const CandidateScore& settled, double error_before, double significance);
 /// The same test on the two RMS values over all runs.
 bool improves_all_runs(double error_after, double error_before, double significance);
+/// The reference a settled winner (or pair) must cut by significance/2 over all runs: the lowest
+/// of the round's error before and the RMS over all runs of every `none` the round refitted
+/// (`none` itself, at the winner's breakpoints, across the α gap, and `pair_twin`, `none` at a
+/// pair's breakpoints, when given).
+double none_reference_rms(const DiagnoseRound& rd, const CandidateScore* pair_twin);
 
 /// Pairs fitted jointly by the fallback at most (each with the iteration limits of a single).
 inline constexpr std::size_t kMaxPairFits = 3;

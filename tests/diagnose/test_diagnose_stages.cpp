@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <memory>
 
 #include <gtest/gtest.h>
@@ -296,6 +297,40 @@ struct ChooseSetup {
   std::vector<DiagnoseRun> no_runs;
   Reidentifier reid{no_runs, 0.0};
 };
+
+TEST(DiagnoseStages, TheAllRunsReferenceIsTheLowestNoneOfTheRound) {
+  // A winner must cut the RMS over all runs of the model as it was AND of every `none` the round
+  // refitted: the lowest of them is the reference; effects and non-finite values do not count.
+  DiagnoseRound rd;
+  rd.error_before = 0.0526;
+  CandidateScore none = scored(EffectKind::kNone, 0.0096);
+  none.error_after = 0.0159;
+  CandidateScore saturation = scored(EffectKind::kSaturation, 0.0053);
+  saturation.error_after = 0.0100;  // an effect: not a reference
+  rd.candidates = {none, saturation};
+  EXPECT_DOUBLE_EQ(none_reference_rms(rd, nullptr), 0.0159);
+  CandidateScore twin = scored(EffectKind::kNone, 0.0097);
+  twin.error_after = 0.0149;
+  rd.none_at_winner_breakpoints = twin;
+  EXPECT_DOUBLE_EQ(none_reference_rms(rd, nullptr), 0.0149);
+  CandidateScore gap = scored(EffectKind::kNone, 0.013);
+  gap.error_after = std::numeric_limits<double>::quiet_NaN();
+  rd.none_across_gap = gap;
+  EXPECT_DOUBLE_EQ(none_reference_rms(rd, nullptr), 0.0149);
+  CandidateScore pair_twin = scored(EffectKind::kNone, 0.01);
+  pair_twin.error_after = 0.0120;
+  EXPECT_DOUBLE_EQ(none_reference_rms(rd, &pair_twin), 0.0120);
+  pair_twin.ok = false;  // not fitted: not a reference
+  EXPECT_DOUBLE_EQ(none_reference_rms(rd, &pair_twin), 0.0149);
+  // The 5.2 ms delay's case: saturation settled at 0.0197 cut the error before (0.0526) but not
+  // that of `none` at its breakpoints (0.0149): not named.
+  EXPECT_TRUE(improves_all_runs(0.0197, rd.error_before, 0.1));
+  EXPECT_FALSE(improves_all_runs(0.0197, none_reference_rms(rd, nullptr), 0.1));
+  // Nothing refitted: the error before.
+  DiagnoseRound bare;
+  bare.error_before = 0.02;
+  EXPECT_DOUBLE_EQ(none_reference_rms(bare, nullptr), 0.02);
+}
 
 TEST(DiagnoseStages, ChooseTakesTheSimplerWithinFivePercentAndRefusesASubTickDelay) {
   // Hand-built candidates without α-models: choose_winner() fits nothing then.
