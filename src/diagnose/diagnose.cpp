@@ -1703,6 +1703,20 @@ double none_reference_rms(const DiagnoseRound& rd, const CandidateScore* pair_tw
   return ref;
 }
 
+std::string fails_all_runs(double error_after, const DiagnoseRound& rd, const CandidateScore* pair_twin,
+                           double significance) {
+  if (!improves_all_runs(error_after, rd.error_before, significance)) {
+    return "settled on the whole fit runs, the RMS over all runs " + num(error_after, "%.4g") +
+           " is not below (1 − significance/2) × " + num(rd.error_before, "%.4g") + " before";
+  }
+  const double reference = none_reference_rms(rd, pair_twin);
+  if (!(error_after <= reference)) {
+    return "settled on the whole fit runs, the RMS over all runs " + num(error_after, "%.4g") +
+           " is above that of none refitted, " + num(reference, "%.4g") + ": the gain is the refit's";
+  }
+  return {};
+}
+
 bool pair_eligible(const CandidateScore& c, const RoundModel& model) {
   if (!c.ok || !c.inactive.empty() || c.effect == EffectKind::kNone) return false;
   const EffectSpec& spec = effect_spec(c.effect);
@@ -1916,12 +1930,10 @@ std::optional<std::size_t> try_pairs(const CandidateFitter& fitter, const Reiden
     return std::nullopt;
   }
   const CandidateScore s = settle_winner(fitter, f, {ps.kinds[0], ps.kinds[1]});
-  // Over all runs, below the model as it was and below every `none` of the round refitted.
-  const double reference = none_reference_rms(rd, ps.none_at_breakpoints ? &*ps.none_at_breakpoints : nullptr);
-  if (!improves_all_runs(s, reference, opt.significance)) {
-    f.message = "settled on the whole fit runs, the RMS over all runs " + num(s.error_after, "%.4g") +
-                " is not below (1 − significance/2) × " + num(reference, "%.4g") +
-                (reference < rd.error_before ? " (none refitted)" : "");
+  // Over all runs, below the model as it was and not above any `none` of the round refitted.
+  const CandidateScore* pair_twin = ps.none_at_breakpoints ? &*ps.none_at_breakpoints : nullptr;
+  if (std::string why = fails_all_runs(s.error_after, rd, pair_twin, opt.significance); !why.empty()) {
+    f.message = std::move(why);
     return std::nullopt;
   }
   // Each member must be needed: the settled pair's RMS over all runs at most (1 − significance/2)
@@ -1947,9 +1959,9 @@ std::optional<std::size_t> try_pairs(const CandidateFitter& fitter, const Reiden
     alone.effects = without_member(s.effects, ps.kinds[drop]);
     alone.error_after = without[drop];
     const CandidateScore s1 = settle_winner(fitter, alone, {ps.kinds[keep]});
-    if (!improves_all_runs(s1, reference, opt.significance)) {
-      f.message = why + "; " + effect_name(ps.kinds[keep]) + " alone does not cut the RMS over all runs " +
-                  num(reference, "%.4g") + " by significance/2";
+    if (const std::string fails = fails_all_runs(s1.error_after, rd, pair_twin, opt.significance);
+        !fails.empty()) {
+      f.message = why + "; " + effect_name(ps.kinds[keep]) + " alone: " + fails;
       return std::nullopt;
     }
     f = s1;
@@ -2063,17 +2075,15 @@ DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const Prep
   bool named_alone = choice.named;
   if (named_alone) {
     s = settle_winner(fitter, rd.candidates[*choice.winner]);
-    // Settled, the winner's RMS over all runs must be below the model as it was and below every
-    // `none` of the round refitted (none_reference_rms()): a winner whose gain over all runs any
-    // `none` refit gives as well is the refit's gain, not the effect's (a 5.2 ms delay named
-    // saturation at 0.0197 where `none` refitted gave 0.0159).
-    const double reference = none_reference_rms(rd, nullptr);
-    named_alone = improves_all_runs(s, reference, opt.significance);
-    if (!named_alone && reference < rd.error_before) {
+    // Settled, the winner's RMS over all runs must be below the model as it was by
+    // significance/2, and not above any `none` of the round refitted (fails_all_runs()): a
+    // winner whose gain over all runs a `none` refit gives as well is the refit's gain, not the
+    // effect's (a 5.2 ms delay named saturation at 0.0197 where `none` refitted gave 0.0149).
+    const std::string why = fails_all_runs(s.error_after, rd, nullptr, opt.significance);
+    named_alone = why.empty();
+    if (!named_alone) {
       CandidateScore& w = rd.candidates[*choice.winner];
-      w.message = "not named: settled, its RMS over all runs " + num(s.error_after, "%.4g") +
-                  " is not below (1 − significance/2) × " + num(reference, "%.4g") +
-                  " of none refitted" + (w.message.empty() ? std::string() : "; " + w.message);
+      w.message = "not named: " + why + (w.message.empty() ? std::string() : "; " + w.message);
     }
   }
   if (!named_alone) {

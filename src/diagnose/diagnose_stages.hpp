@@ -453,6 +453,12 @@ bool improves_all_runs(double error_after, double error_before, double significa
 /// (`none` itself, at the winner's breakpoints, across the α gap, and `pair_twin`, `none` at a
 /// pair's breakpoints, when given).
 double none_reference_rms(const DiagnoseRound& rd, const CandidateScore* pair_twin);
+/// A settled winner's (or pair's) last test over all runs: its RMS at most (1 − significance/2)
+/// × the round's error before (improves_all_runs()), and not above none_reference_rms() (the
+/// cross-validated score already says the effect is significant; over all runs it must not do
+/// worse than a `none` refit). Empty when it passes, else why not.
+std::string fails_all_runs(double error_after, const DiagnoseRound& rd, const CandidateScore* pair_twin,
+                           double significance);
 
 /// Pairs fitted jointly by the fallback at most (each with the iteration limits of a single).
 inline constexpr std::size_t kMaxPairFits = 3;

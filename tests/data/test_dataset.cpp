@@ -19,13 +19,14 @@
 #include "alphainv/data/dataset.hpp"
 #include "alphainv/error.hpp"
 #include "support/error_of.hpp"
+#include "support/shared_datasets.hpp"
 
 namespace alphainv {
 namespace {
 
 namespace fs = std::filesystem;
 
-const fs::path kSharedDatasets = fs::path(ALPHAINV_SHARED_DIR) / "datasets";
+const fs::path kSharedDatasets = alphainv::test::shared_datasets();
 const char* const kGoodCsv = "t,r,theta,v\n0,0,0,0\n0.001,0.1,0.01,1.5\n";
 
 void write_text(const fs::path& path, const std::string& text) {
@@ -619,6 +620,7 @@ TEST_F(DatasetTest, RoundTripIsBitIdentical) {
 }
 
 TEST_F(DatasetTest, RoundTripRealPendulumDataset) {
+  ALPHAINV_SKIP_WITHOUT_SHARED_DATASET("xl330_pendulum");
   const Dataset ds = read_dataset_index(kSharedDatasets / "xl330_pendulum");
   std::vector<RunData> data;
   for (std::size_t i = 0; i < ds.runs.size(); ++i) data.push_back(read_run(ds, i));
@@ -752,6 +754,7 @@ TEST_F(DatasetTest, WriteRunCsvReplacesAtomically) {
 // ---------------------------------------------------------
 
 TEST(RealDatasets, EmpsLoads) {
+  ALPHAINV_SKIP_WITHOUT_SHARED_DATASET("emps");
   const Dataset ds = read_dataset_index(kSharedDatasets / "emps");
   EXPECT_EQ(ds.joint, "prismatic");
   EXPECT_EQ(ds.position_unit, "m");
@@ -772,6 +775,7 @@ TEST(RealDatasets, EmpsLoads) {
 }
 
 TEST(RealDatasets, PendulumLoads) {
+  ALPHAINV_SKIP_WITHOUT_SHARED_DATASET("xl330_pendulum");
   const Dataset ds = read_dataset_index(kSharedDatasets / "xl330_pendulum");
   EXPECT_EQ(ds.joint, "pendulum");
   EXPECT_EQ(ds.position_unit, "rad");

@@ -13,6 +13,7 @@
 #include "alphainv/simulate/recorded_run.hpp"
 
 #include "diagnose/one_pose_dataset.hpp"
+#include "support/shared_datasets.hpp"
 
 namespace alphainv {
 namespace {
@@ -315,7 +316,8 @@ TEST(DiagnoseSweep, NeverACleanBillWhileStructureRemains) {
 // saturation at 4.06 V that changed the RMS over all runs by nothing (a member that adds nothing
 // is dropped, try_pairs()). Not under the sanitizers (tens of seconds in release).
 TEST(DiagnoseReal, EmpsNamesCoulombAndTheReferenceOffsetAndNoPassenger) {
-  const Dataset ds = read_dataset_index(std::filesystem::path(ALPHAINV_SHARED_DIR) / "datasets" / "emps");
+  ALPHAINV_SKIP_WITHOUT_SHARED_DATASET("emps");
+  const Dataset ds = read_dataset_index(alphainv::test::shared_datasets() / "emps");
   const std::vector<RunData> data = {read_run(ds, 0)};
   DiagnoseOptions o;  // max_effects 3, as omni_fit diagnose
   o.threads = 2;
