@@ -1690,7 +1690,13 @@ bool improves_all_runs(const CandidateScore& settled, double error_before, doubl
   return improves_all_runs(settled.error_after, error_before, significance);
 }
 
-double none_reference_rms(const DiagnoseRound& rd, const CandidateScore* pair_twin) {
+std::string not_below_before(double error_after, double error_before, double significance) {
+  if (improves_all_runs(error_after, error_before, significance)) return {};
+  return "settled on the whole fit runs, the RMS over all runs " + num(error_after, "%.4g") +
+         " is not below (1 − significance/2) × " + num(error_before, "%.4g") + " before";
+}
+
+double none_reference_rms(const DiagnoseRound& rd) {
   double ref = rd.error_before;
   const auto lower = [&ref](const CandidateScore& c) {
     if (c.ok && c.effect == EffectKind::kNone && std::isfinite(c.error_after) && c.error_after < ref)
@@ -1699,17 +1705,13 @@ double none_reference_rms(const DiagnoseRound& rd, const CandidateScore* pair_tw
   for (const CandidateScore& c : rd.candidates) lower(c);
   if (rd.none_at_winner_breakpoints) lower(*rd.none_at_winner_breakpoints);
   if (rd.none_across_gap) lower(*rd.none_across_gap);
-  if (pair_twin != nullptr) lower(*pair_twin);
   return ref;
 }
 
-std::string fails_all_runs(double error_after, const DiagnoseRound& rd, const CandidateScore* pair_twin,
-                           double significance) {
-  if (!improves_all_runs(error_after, rd.error_before, significance)) {
-    return "settled on the whole fit runs, the RMS over all runs " + num(error_after, "%.4g") +
-           " is not below (1 − significance/2) × " + num(rd.error_before, "%.4g") + " before";
-  }
-  const double reference = none_reference_rms(rd, pair_twin);
+std::string fails_all_runs(double error_after, const DiagnoseRound& rd, double significance) {
+  if (std::string why = not_below_before(error_after, rd.error_before, significance); !why.empty())
+    return why;
+  const double reference = none_reference_rms(rd);
   if (!(error_after <= reference)) {
     return "settled on the whole fit runs, the RMS over all runs " + num(error_after, "%.4g") +
            " is above that of none refitted, " + num(reference, "%.4g") + ": the gain is the refit's";
@@ -1936,12 +1938,7 @@ std::optional<std::size_t> try_pairs(const CandidateFitter& fitter, const Reiden
   // gravity + a 4 ms delay (seed 41, pose 5) the pair saturation + Coulomb, 0.0401 over all runs
   // against `none` refitted 0.0248, opened the rounds that named gravity and the delay; vetoed,
   // the diagnosis ended at round 1 with nothing named.
-  const auto fails_before = [&](double after) -> std::string {
-    if (improves_all_runs(after, rd.error_before, opt.significance)) return {};
-    return "settled on the whole fit runs, the RMS over all runs " + num(after, "%.4g") +
-           " is not below (1 − significance/2) × " + num(rd.error_before, "%.4g") + " before";
-  };
-  if (std::string why = fails_before(s.error_after); !why.empty()) {
+  if (std::string why = not_below_before(s.error_after, rd.error_before, opt.significance); !why.empty()) {
     f.message = std::move(why);
     return std::nullopt;
   }
@@ -1968,7 +1965,7 @@ std::optional<std::size_t> try_pairs(const CandidateFitter& fitter, const Reiden
     alone.effects = without_member(s.effects, ps.kinds[drop]);
     alone.error_after = without[drop];
     const CandidateScore s1 = settle_winner(fitter, alone, {ps.kinds[keep]});
-    if (const std::string fails = fails_before(s1.error_after); !fails.empty()) {
+    if (const std::string fails = not_below_before(s1.error_after, rd.error_before, opt.significance); !fails.empty()) {
       f.message = why + "; " + effect_name(ps.kinds[keep]) + " alone: " + fails;
       return std::nullopt;
     }
@@ -2087,7 +2084,7 @@ DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const Prep
     // significance/2, and not above any `none` of the round refitted (fails_all_runs()): a
     // winner whose gain over all runs a `none` refit gives as well is the refit's gain, not the
     // effect's (a 5.2 ms delay named saturation at 0.0197 where `none` refitted gave 0.0149).
-    const std::string why = fails_all_runs(s.error_after, rd, nullptr, opt.significance);
+    const std::string why = fails_all_runs(s.error_after, rd, opt.significance);
     named_alone = why.empty();
     if (!named_alone) {
       CandidateScore& w = rd.candidates[*choice.winner];

@@ -448,17 +448,17 @@ CandidateScore settle_winner(const CandidateFitter& fitter, const CandidateScore
 bool improves_all_runs(const CandidateScore& settled, double error_before, double significance);
 /// The same test on the two RMS values over all runs.
 bool improves_all_runs(double error_after, double error_before, double significance);
-/// The reference a settled winner (or pair) must cut by significance/2 over all runs: the lowest
-/// of the round's error before and the RMS over all runs of every `none` the round refitted
-/// (`none` itself, at the winner's breakpoints, across the α gap, and `pair_twin`, `none` at a
-/// pair's breakpoints, when given).
-double none_reference_rms(const DiagnoseRound& rd, const CandidateScore* pair_twin);
-/// A settled winner's (or pair's) last test over all runs: its RMS at most (1 − significance/2)
-/// × the round's error before (improves_all_runs()), and not above none_reference_rms() (the
-/// cross-validated score already says the effect is significant; over all runs it must not do
-/// worse than a `none` refit). Empty when it passes, else why not.
-std::string fails_all_runs(double error_after, const DiagnoseRound& rd, const CandidateScore* pair_twin,
-                           double significance);
+/// The settled RMS over all runs `error_after` against the round's `error_before`: empty when it
+/// is at most (1 − significance/2) × error_before (improves_all_runs()), else why not.
+std::string not_below_before(double error_after, double error_before, double significance);
+/// The lowest of the round's error before and the RMS over all runs of every `none` the round
+/// refitted (`none` itself, at the winner's breakpoints, across the α gap).
+double none_reference_rms(const DiagnoseRound& rd);
+/// A settled single winner's last test over all runs: not_below_before() the round's error
+/// before, and not above none_reference_rms() (the cross-validated score already says the effect
+/// is significant; over all runs it must not do worse than a `none` refit). Empty when it passes,
+/// else why not. (A pair is held to not_below_before() only: try_pairs().)
+std::string fails_all_runs(double error_after, const DiagnoseRound& rd, double significance);
 
 /// Pairs fitted jointly by the fallback at most (each with the iteration limits of a single).
 inline constexpr std::size_t kMaxPairFits = 3;

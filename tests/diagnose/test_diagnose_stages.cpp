@@ -308,38 +308,42 @@ TEST(DiagnoseStages, TheAllRunsReferenceIsTheLowestNoneOfTheRound) {
   CandidateScore saturation = scored(EffectKind::kSaturation, 0.0053);
   saturation.error_after = 0.0100;  // an effect: not a reference
   rd.candidates = {none, saturation};
-  EXPECT_DOUBLE_EQ(none_reference_rms(rd, nullptr), 0.0159);
+  EXPECT_DOUBLE_EQ(none_reference_rms(rd), 0.0159);
   CandidateScore twin = scored(EffectKind::kNone, 0.0097);
   twin.error_after = 0.0149;
   rd.none_at_winner_breakpoints = twin;
-  EXPECT_DOUBLE_EQ(none_reference_rms(rd, nullptr), 0.0149);
+  EXPECT_DOUBLE_EQ(none_reference_rms(rd), 0.0149);
   CandidateScore gap = scored(EffectKind::kNone, 0.013);
   gap.error_after = std::numeric_limits<double>::quiet_NaN();
   rd.none_across_gap = gap;
-  EXPECT_DOUBLE_EQ(none_reference_rms(rd, nullptr), 0.0149);
-  CandidateScore pair_twin = scored(EffectKind::kNone, 0.01);
-  pair_twin.error_after = 0.0120;
-  EXPECT_DOUBLE_EQ(none_reference_rms(rd, &pair_twin), 0.0120);
-  pair_twin.ok = false;  // not fitted: not a reference
-  EXPECT_DOUBLE_EQ(none_reference_rms(rd, &pair_twin), 0.0149);
+  EXPECT_DOUBLE_EQ(none_reference_rms(rd), 0.0149);
+  CandidateScore unfitted = scored(EffectKind::kNone, 0.01);
+  unfitted.error_after = 0.0120;
+  unfitted.ok = false;  // not fitted: not a reference
+  rd.candidates.push_back(unfitted);
+  EXPECT_DOUBLE_EQ(none_reference_rms(rd), 0.0149);
   // The 5.2 ms delay's case: saturation settled at 0.0197 cut the error before (0.0526) but not
   // that of `none` at its breakpoints (0.0149): not named.
   EXPECT_TRUE(improves_all_runs(0.0197, rd.error_before, 0.1));
-  const std::string why = fails_all_runs(0.0197, rd, nullptr, 0.1);
+  const std::string why = fails_all_runs(0.0197, rd, 0.1);
   EXPECT_NE(why.find("above that of none refitted, 0.0149"), std::string::npos) << why;
   // Not above the reference passes: the cross-validated score says the effect is significant
   // (a cogging of 0.008 V, seed 42: settled 0.001601 against none refitted 0.001648).
-  EXPECT_EQ(fails_all_runs(0.0149, rd, nullptr, 0.1), "");
-  EXPECT_EQ(fails_all_runs(0.0140, rd, nullptr, 0.1), "");
+  EXPECT_EQ(fails_all_runs(0.0149, rd, 0.1), "");
+  EXPECT_EQ(fails_all_runs(0.0140, rd, 0.1), "");
   // Not below the error before by significance/2: fails whatever the refits.
   DiagnoseRound close = rd;
   close.error_before = 0.0142;
-  EXPECT_NE(fails_all_runs(0.0140, close, nullptr, 0.1).find("not below (1 − significance/2) × 0.0142"),
+  EXPECT_NE(fails_all_runs(0.0140, close, 0.1).find("not below (1 − significance/2) × 0.0142"),
             std::string::npos);
+  // A pair's test is the first half alone (not_below_before()): the same message, and no refit.
+  EXPECT_EQ(not_below_before(0.0197, 0.0526, 0.1), "");
+  EXPECT_EQ(not_below_before(0.0140, 0.0142, 0.1),
+            fails_all_runs(0.0140, close, 0.1));
   // Nothing refitted: the error before.
   DiagnoseRound bare;
   bare.error_before = 0.02;
-  EXPECT_DOUBLE_EQ(none_reference_rms(bare, nullptr), 0.02);
+  EXPECT_DOUBLE_EQ(none_reference_rms(bare), 0.02);
 }
 
 TEST(DiagnoseStages, ChooseTakesTheSimplerWithinFivePercentAndRefusesASubTickDelay) {
