@@ -1965,7 +1965,10 @@ std::optional<std::size_t> try_pairs(const CandidateFitter& fitter, const Reiden
     alone.effects = without_member(s.effects, ps.kinds[drop]);
     alone.error_after = without[drop];
     const CandidateScore s1 = settle_winner(fitter, alone, {ps.kinds[keep]});
-    if (const std::string fails = not_below_before(s1.error_after, rd.error_before, opt.significance); !fails.empty()) {
+    // Named alone it is a single winner, held to a single's test (fails_all_runs()): a 5.2 ms
+    // delay (seed 42) was named saturation alone from saturation + deadzone, 0.0182 over all
+    // runs where `none` refitted gave 0.0149.
+    if (const std::string fails = fails_all_runs(s1.error_after, rd, opt.significance); !fails.empty()) {
       f.message = why + "; " + effect_name(ps.kinds[keep]) + " alone: " + fails;
       return std::nullopt;
     }
