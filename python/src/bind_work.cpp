@@ -334,6 +334,7 @@ struct DiagnoseOutcome {
       for (const CandidateScore& c : r.candidates) cands.append(candidate(c));
       d["candidates"] = cands;
       d["none_at_winner_breakpoints"] = r.none_at_winner_breakpoints ? py::object(candidate(*r.none_at_winner_breakpoints)) : py::object(py::none());
+      d["none_at_runner_up_breakpoints"] = r.none_at_runner_up_breakpoints ? py::object(candidate(*r.none_at_runner_up_breakpoints)) : py::object(py::none());
       d["none_across_gap"] = r.none_across_gap ? py::object(candidate(*r.none_across_gap)) : py::object(py::none());
       d["none_refitted"] = r.none_refitted;
       d["none_refit_how"] = r.none_refit_how;

@@ -199,6 +199,10 @@ std::string DiagnoseResult::full_report() const {
       s << candidate_line("none at the winner's breakpoints", *rd.none_at_winner_breakpoints,
                           "the winner must beat this too");
     }
+    if (rd.none_at_runner_up_breakpoints) {
+      s << candidate_line("none at the runner-up's breakpoints", *rd.none_at_runner_up_breakpoints,
+                          "the runner-up must beat this too");
+    }
     if (rd.none_across_gap) {
       s << candidate_line("none across the α gap", *rd.none_across_gap,
                           "α-model linear across the widest gap of the sine points' α; the winner must beat this too");
@@ -260,6 +264,12 @@ std::string diagnose_report_markdown(const DiagnoseResult& r, const std::vector<
       s << "| none at the winner's breakpoints | " << fmt(t.score) << " | " << fmt(t.fold_scores[0])
         << " | " << fmt(t.fold_scores[1]) << " | " << fmt(t.error_after)
         << " | – | the winner must beat this too |\n";
+    }
+    if (rd.none_at_runner_up_breakpoints) {
+      const CandidateScore& t = *rd.none_at_runner_up_breakpoints;
+      s << "| none at the runner-up's breakpoints | " << fmt(t.score) << " | " << fmt(t.fold_scores[0])
+        << " | " << fmt(t.fold_scores[1]) << " | " << fmt(t.error_after)
+        << " | – | the runner-up (tried when the winner was not named) must beat this too |\n";
     }
     if (rd.none_across_gap) {
       const CandidateScore& t = *rd.none_across_gap;

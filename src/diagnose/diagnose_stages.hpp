@@ -436,6 +436,13 @@ struct Choice {
 /// points' α (rd.none_across_gap).
 Choice choose_winner(const CandidateFitter& fitter, const Reidentifier& reid, DiagnoseRound& rd);
 
+/// The runner-up when the winner rd.candidates[first] (an effect) was not named: among the other
+/// cross-validated, active effects the lowest score, named under the winner's guards (`none`
+/// in both folds, `none` at its breakpoints, kept in rd.none_at_runner_up_breakpoints, and
+/// across the α gap). No candidate when `first` is `none` (then none beat it).
+Choice choose_runner_up(const CandidateFitter& fitter, const Reidentifier& reid, DiagnoseRound& rd,
+                        std::size_t first);
+
 /// Settle: the winner fitted again on the whole fit runs (from its window fit; the error over all
 /// runs also counts the runs' starts). Returns `winner` improved when the RMS over all runs drops,
 /// else `winner`. Only with options.fit_window_s > 0.
@@ -452,7 +459,7 @@ bool improves_all_runs(double error_after, double error_before, double significa
 /// is at most (1 − significance/2) × error_before (improves_all_runs()), else why not.
 std::string not_below_before(double error_after, double error_before, double significance);
 /// The lowest of the round's error before and the RMS over all runs of every `none` the round
-/// refitted (`none` itself, at the winner's breakpoints, across the α gap).
+/// refitted (`none` itself, at the winner's and the runner-up's breakpoints, across the α gap).
 double none_reference_rms(const DiagnoseRound& rd);
 /// A settled single winner's last test over all runs: not_below_before() the round's error
 /// before, and not above none_reference_rms() (the cross-validated score already says the effect

@@ -391,6 +391,53 @@ TEST(DiagnoseStages, ChooseTakesTheSimplerWithinFivePercentAndRefusesASubTickDel
   EXPECT_FALSE(choose_winner(fitter, reid, d).none_fitted);
 }
 
+TEST(DiagnoseStages, TheRunnerUpIsTheNextLowestScoreUnderTheWinnersGuards) {
+  // Hand-built candidates without α-models (no twin is fitted): the runner-up of a winner that
+  // was not named is the next lowest cross-validated, active effect, held to the same guards.
+  const ChooseSetup setup;
+  const CandidateFitter& fitter = setup.fitter;
+  const Reidentifier& reid = setup.reid;
+  DiagnoseRound rd;
+  rd.candidates = {scored(EffectKind::kNone, 1.0), scored(EffectKind::kTimeDelay, 0.40),
+                   scored(EffectKind::kStribeckFriction, 0.45), scored(EffectKind::kGravity, 0.60),
+                   scored(EffectKind::kCogging, 0.30)};
+  rd.candidates[1].effects.delay_s = 0.004;
+  rd.candidates[2].effects.stribeck_coulomb_v = 0.02;  // with its breakaway hump: active
+  rd.candidates[2].effects.stribeck_breakaway_v = 0.05;
+  rd.candidates[4].cross_validated = false;  // pruned: not a runner-up however low
+  const Choice first = choose_winner(fitter, reid, rd);
+  ASSERT_TRUE(first.winner.has_value());
+  EXPECT_EQ(rd.candidates[*first.winner].effect, EffectKind::kTimeDelay);
+  Choice ch = choose_runner_up(fitter, reid, rd, *first.winner);
+  ASSERT_TRUE(ch.winner.has_value());
+  EXPECT_EQ(rd.candidates[*ch.winner].effect, EffectKind::kStribeckFriction);
+  EXPECT_TRUE(ch.named);
+  EXPECT_FALSE(rd.none_at_runner_up_breakpoints.has_value());
+  // Held to the guards: not 10 % below `none` in fold 1 (0.91 against 1.0) → not named.
+  rd.candidates[2].fold_scores[0] = 0.91;
+  ch = choose_runner_up(fitter, reid, rd, *first.winner);
+  EXPECT_EQ(rd.candidates[*ch.winner].effect, EffectKind::kStribeckFriction);
+  EXPECT_FALSE(ch.named);
+  // Set aside as inactive: the next one (gravity, 0.60) is the runner-up.
+  rd.candidates[2].inactive = "no breakaway hump";
+  ch = choose_runner_up(fitter, reid, rd, *first.winner);
+  EXPECT_EQ(rd.candidates[*ch.winner].effect, EffectKind::kGravity);
+  EXPECT_TRUE(ch.named);
+  // A winner that is `none`: nothing beat it, no runner-up.
+  DiagnoseRound n;
+  n.candidates = {scored(EffectKind::kNone, 0.5), scored(EffectKind::kGravity, 0.6)};
+  const Choice none_won = choose_winner(fitter, reid, n);
+  ASSERT_TRUE(none_won.winner.has_value());
+  EXPECT_EQ(n.candidates[*none_won.winner].effect, EffectKind::kNone);
+  EXPECT_FALSE(choose_runner_up(fitter, reid, n, *none_won.winner).winner.has_value());
+  // The runner-up's twin counts in the all-runs reference.
+  CandidateScore twin = scored(EffectKind::kNone, 0.5);
+  twin.error_after = 0.0017;
+  rd.error_before = 0.0020;
+  rd.none_at_runner_up_breakpoints = twin;
+  EXPECT_DOUBLE_EQ(none_reference_rms(rd), 0.0017);
+}
+
 TEST(DiagnoseStages, ChooseSetsAsideAnEffectInactiveOnTheData) {
   // Runs with v = 0.5·sin(2π·t): the largest |v| is 0.5 V.
   const ChooseSetup setup;

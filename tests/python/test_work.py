@@ -134,6 +134,8 @@ def test_diagnose_names_a_hidden_offset_torque():
     # a named round keeps its model: not `none` refitted
     assert first["none_refitted"] is False and first["none_refit_how"] == ""
     assert first["after_dropping"] is False
+    # the winner was named: no runner-up was tried
+    assert first["none_at_runner_up_breakpoints"] is None
     assert first["took_in"] == "none"  # an offset generalises nothing
     # candidates the data cannot tell from the named effects: spanned by named ones only
     for n in d.not_separable:

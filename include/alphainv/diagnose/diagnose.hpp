@@ -203,6 +203,9 @@ struct DiagnoseRound {
   /// `none` refitted with the α-model at the winner's breakpoints (when the winner's α-model was
   /// re-identified): the winner is named only if it beats this too.
   std::optional<CandidateScore> none_at_winner_breakpoints;
+  /// The same for the runner-up, tried when the winner was not named (the next lowest score,
+  /// held to the winner's tests).
+  std::optional<CandidateScore> none_at_runner_up_breakpoints;
   /// `none` refitted with the α-model linear in α across the widest gap of the sine points' α
   /// (when there is one, more than 4× between neighbours, and a winner): the winner is named only
   /// if it beats this too. The grid's breakpoints may put a knee anywhere in such a gap, which
