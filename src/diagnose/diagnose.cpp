@@ -1962,10 +1962,11 @@ std::optional<std::size_t> try_pairs(const CandidateFitter& fitter, const Reiden
   const CandidateScore s = settle_winner(fitter, f, {ps.kinds[0], ps.kinds[1]});
   // Over all runs, below the model as it was by significance/2. Not also "not above any `none`
   // refitted" as a single winner (fails_all_runs()): a pair is a way out of a round that named
-  // nothing, and one named here can still be dropped after the rounds (drop_redundant). On
-  // gravity + a 4 ms delay (seed 41, pose 5) the pair saturation + Coulomb, 0.0401 over all runs
-  // against `none` refitted 0.0248, opened the rounds that named gravity and the delay; vetoed,
-  // the diagnosis ended at round 1 with nothing named.
+  // nothing, and one named here can still be dropped after the rounds (drop_redundant). (On
+  // gravity + a 4 ms delay, seed 41, pose 5, it was the Coulomb friction kept alone from the pair
+  // saturation + Coulomb, 0.0355 over all runs against `none` refitted 0.0248, that opened the
+  // rounds naming gravity and the delay; held to a single's test below since a6191f1, it is
+  // vetoed and the case ends at round 1: docs/diagnose.md item 4.)
   if (std::string why = not_below_before(s.error_after, rd.error_before, opt.significance); !why.empty()) {
     f.message = std::move(why);
     return std::nullopt;
