@@ -2129,6 +2129,12 @@ DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const Prep
     // all runs (0.00186 against 0.00167 before), while Stribeck friction, second, cut it to 0.0015.
     const std::size_t first = *choice.winner;
     const Choice second = choose_runner_up(fitter, reid, rd, first);
+    if (second.winner && !second.named) {
+      CandidateScore& r = rd.candidates[*second.winner];
+      r.message = "the runner-up, not named: not below none, none at its breakpoints or none across "
+                  "the α gap by the significance in both folds (or a delay below one tick)" +
+                  (r.message.empty() ? std::string() : "; " + r.message);
+    }
     if (second.named) {
       s = settle_winner(fitter, rd.candidates[*second.winner]);
       const std::string why = fails_all_runs(s.error_after, rd, opt.significance);
