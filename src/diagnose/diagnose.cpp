@@ -1627,6 +1627,25 @@ bool passes_guards(const CandidateFitter& fitter, const Reidentifier& reid, Diag
   return named;
 }
 
+/// The indices of `none` (fitted) and of the lowest score among the cross-validated, active
+/// candidates (pruned or set aside ones have no score to compare). With `excluded` (the winner,
+/// for its runner-up), that one and `none` are not the lowest.
+struct LowestScored {
+  std::optional<std::size_t> none, best;
+};
+LowestScored lowest_scored(const DiagnoseRound& rd, std::optional<std::size_t> excluded) {
+  LowestScored out;
+  for (std::size_t k = 0; k < rd.candidates.size(); ++k) {
+    const CandidateScore& c = rd.candidates[k];
+    if (!c.ok) continue;
+    if (c.effect == EffectKind::kNone) out.none = k;
+    if (!c.cross_validated || !c.inactive.empty()) continue;
+    if (excluded && (k == *excluded || c.effect == EffectKind::kNone)) continue;
+    if (!out.best || c.score < rd.candidates[*out.best].score) out.best = k;
+  }
+  return out;
+}
+
 }  // namespace
 
 Choice choose_winner(const CandidateFitter& fitter, const Reidentifier& reid, DiagnoseRound& rd) {
@@ -1635,14 +1654,7 @@ Choice choose_winner(const CandidateFitter& fitter, const Reidentifier& reid, Di
   const double largest_v = largest_abs_command_v(fitter.prepared());
   for (CandidateScore& c : rd.candidates) set_aside_if_inactive(c, largest_v);
   // The winner: lowest score; named only if significantly better than `none` in both folds.
-  std::optional<std::size_t> none, best;
-  for (std::size_t k = 0; k < rd.candidates.size(); ++k) {
-    const CandidateScore& c = rd.candidates[k];
-    if (!c.ok) continue;
-    if (c.effect == EffectKind::kNone) none = k;
-    if (!c.cross_validated || !c.inactive.empty()) continue;  // pruned or set aside
-    if (!best || c.score < rd.candidates[*best].score) best = k;
-  }
+  const auto [none, best] = lowest_scored(rd, std::nullopt);
   if (!none) return choice;
   choice.none_fitted = true;
   if (!best) return choice;
@@ -1654,14 +1666,7 @@ Choice choose_winner(const CandidateFitter& fitter, const Reidentifier& reid, Di
 Choice choose_runner_up(const CandidateFitter& fitter, const Reidentifier& reid, DiagnoseRound& rd,
                         std::size_t first) {
   Choice choice;
-  std::optional<std::size_t> none, best;
-  for (std::size_t k = 0; k < rd.candidates.size(); ++k) {
-    const CandidateScore& c = rd.candidates[k];
-    if (!c.ok) continue;
-    if (c.effect == EffectKind::kNone) none = k;
-    if (k == first || c.effect == EffectKind::kNone || !c.cross_validated || !c.inactive.empty()) continue;
-    if (!best || c.score < rd.candidates[*best].score) best = k;
-  }
+  const auto [none, best] = lowest_scored(rd, first);
   choice.none_fitted = none.has_value();
   if (!none || !best || rd.candidates[first].effect == EffectKind::kNone) return choice;
   choice.winner = best;
@@ -2109,43 +2114,38 @@ DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const Prep
     return rd;
   }
   CandidateScore s;
-  bool named_alone = choice.named;
-  if (named_alone) {
-    s = settle_winner(fitter, rd.candidates[*choice.winner]);
-    // Settled, the winner's RMS over all runs must be below the model as it was by
-    // significance/2, and not above any `none` of the round refitted (fails_all_runs()): a
-    // winner whose gain over all runs a `none` refit gives as well is the refit's gain, not the
-    // effect's (a 5.2 ms delay named saturation at 0.0197 where `none` refitted gave 0.0149).
+  // A candidate the guards named, settled (into `s`); its RMS over all runs must be below the
+  // model as it was by significance/2, and not above any `none` of the round refitted
+  // (fails_all_runs()): a winner whose gain over all runs a `none` refit gives as well is the
+  // refit's gain, not the effect's (a 5.2 ms delay named saturation at 0.0197 where `none`
+  // refitted gave 0.0149). Else `refused` and why go first in its note.
+  const auto settled_passes = [&](std::size_t k, const std::string& refused) {
+    s = settle_winner(fitter, rd.candidates[k]);
     const std::string why = fails_all_runs(s.error_after, rd, opt.significance);
-    named_alone = why.empty();
-    if (!named_alone) {
-      CandidateScore& w = rd.candidates[*choice.winner];
-      w.message = "not named: " + why + (w.message.empty() ? std::string() : "; " + w.message);
-    }
-  }
+    if (why.empty()) return true;
+    CandidateScore& c = rd.candidates[k];
+    c.message = refused + why + (c.message.empty() ? std::string() : "; " + c.message);
+    return false;
+  };
+  bool named_alone = choice.named && settled_passes(*choice.winner, "not named: ");
   if (!named_alone && choice.winner) {
     // The winner not named: the runner-up (the next lowest score), held to the same tests. A
     // 4 ms delay won round 2 of deadzone + Stribeck (seed 41) by the CV score and failed over
     // all runs (0.00186 against 0.00167 before), while Stribeck friction, second, cut it to 0.0015.
     const std::size_t first = *choice.winner;
     const Choice second = choose_runner_up(fitter, reid, rd, first);
-    if (second.winner && !second.named) {
-      CandidateScore& r = rd.candidates[*second.winner];
-      r.message = "the runner-up, not named: not below none, none at its breakpoints or none across "
-                  "the α gap by the significance in both folds (or a delay below one tick)" +
-                  (r.message.empty() ? std::string() : "; " + r.message);
-    }
+    const std::string refused = "the runner-up, not named: ";
     if (second.named) {
-      s = settle_winner(fitter, rd.candidates[*second.winner]);
-      const std::string why = fails_all_runs(s.error_after, rd, opt.significance);
-      CandidateScore& r = rd.candidates[*second.winner];
-      if (why.empty()) {
-        named_alone = true;
+      named_alone = settled_passes(*second.winner, refused);
+      if (named_alone) {
         s.message = "named as the runner-up: " + std::string(effect_name(rd.candidates[first].effect)) +
                     ", the lowest score, was not" + (s.message.empty() ? std::string() : "; " + s.message);
-      } else {
-        r.message = "the runner-up, not named: " + why + (r.message.empty() ? std::string() : "; " + r.message);
       }
+    } else if (second.winner) {
+      CandidateScore& r = rd.candidates[*second.winner];
+      r.message = refused + "not below none, none at its breakpoints or none across the α gap by the "
+                  "significance in both folds (or a delay below one tick)" +
+                  (r.message.empty() ? std::string() : "; " + r.message);
     }
   }
   if (!named_alone) {
