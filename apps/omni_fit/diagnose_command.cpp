@@ -62,27 +62,11 @@ nlohmann::json result_json(const DiagnoseResult& res) {
   j["effects"] = names;
   // Every named effect in order with its parameters and the error over all runs after its round.
   nlohmann::json named = nlohmann::json::array();
-  if (res.disturbance.named) {  // located before the rounds
-    named.push_back({{"effect", effect_name(EffectKind::kExternalDisturbance)},
-                     {"parameters", parameters_json(res.effects, EffectKind::kExternalDisturbance)},
-                     {"error_after", num(res.disturbance.error_after)}});
-  }
-  for (std::size_t r = 0; r < res.rounds.size(); ++r) {
-    const DiagnoseRound& rd = res.rounds[r];
-    for (EffectKind k : {rd.named, rd.named_second}) {  // (a pair: both, the round's error after)
-      if (k == EffectKind::kNone) continue;
-      // (an effect dropped after the rounds is in `dropped`)
-      if (std::any_of(res.dropped.begin(), res.dropped.end(), [&](const DroppedEffect& d) { return d.effect == k; }))
-        continue;
-      // (an effect a later round's generalisation took in is in that one's entry)
-      if (std::any_of(res.rounds.begin() + static_cast<std::ptrdiff_t>(r) + 1, res.rounds.end(),
-                      [&](const DiagnoseRound& later) { return later.took_in == k; }))
-        continue;
-      nlohmann::json entry = {{"effect", effect_name(k)}, {"parameters", parameters_json(res.effects, k)},
-                              {"error_after", num(rd.error_after)}};
-      if (k == rd.named && rd.took_in != EffectKind::kNone) entry["took_in"] = effect_name(rd.took_in);
-      named.push_back(entry);
-    }
+  for (const NamedEffect& n : res.named_in_order()) {
+    nlohmann::json entry = {{"effect", effect_name(n.effect)}, {"parameters", parameters_json(res.effects, n.effect)},
+                            {"error_after", num(n.error_after)}};
+    if (n.took_in != EffectKind::kNone) entry["took_in"] = effect_name(n.took_in);
+    named.push_back(entry);
   }
   // The discovered term (tried when structure remained after the named effects): its terms,
   // the error after it, and whether it was kept (in the model) and carries the remainder.

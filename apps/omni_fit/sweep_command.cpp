@@ -107,6 +107,9 @@ CLI::App* add_sweep_subcommand(CLI::App& app, SweepCommandOptions& o) {
               "exit 3 unless every case names its effect (cutting the RMS error by >= 30 %) and "
               "every effect-free case says none");
   c->add_flag("--json", o.json, "print the cases as one JSON object (alone on standard output)");
+  c->add_flag("--no-discover", o.no_discover,
+              "no discovered term after the named effects (as omni_fit diagnose --no-discover): the "
+              "verdict judges the named effects alone");
   c->add_option("--threads", o.threads, "cases diagnosed side by side, one thread each (default: all cores)");
   c->add_option("-o,--out", o.out_file, "write the confusion matrix (Markdown) to this file");
   c->footer("Each case: the paper's 9-frequency sine sweep and a 0.25 Hz square wave at one pose "
@@ -190,6 +193,7 @@ int run_sweep(const SweepCommandOptions& o) {
     // The matrix counts the first name: one round (the rounds after it are the confusion
     // script's, scripts/diagnose_confusion.py, over omni_fit diagnose's default of 3).
     dopt.max_effects = 1;
+    dopt.discover = !o.no_discover;
     results[ci] = diagnose_dataset(gen.index, gen.runs, dopt);
     const DiagnoseResult& r = results[ci];
     const EffectKind named = r.ok && !r.effects_named.empty() ? r.effects_named.front() : EffectKind::kNone;

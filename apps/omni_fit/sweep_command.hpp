@@ -17,6 +17,7 @@ struct SweepCommandOptions {
   bool vary = false;       ///< draw magnitude factors and the effects' other parameters from the seed
   bool require = false;    ///< exit 1 unless every case is named right (and cut ≥ 30 %)
   bool json = false;
+  bool no_discover = false;  ///< no discovered term after the named effects (the verdict judges them alone)
   unsigned threads = 0;
   std::string out_file;    ///< -o: the confusion matrix as Markdown
 };

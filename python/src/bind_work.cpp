@@ -14,6 +14,8 @@
 #include "alphainv/diagnose/diagnose.hpp"
 #include "alphainv/diagnose/diagnose_report.hpp"
 #include "alphainv/diagnose/diagnosed_model_file.hpp"
+#include "alphainv/diagnose/discovered_term.hpp"
+#include "alphainv/diagnose/verdict.hpp"
 #include "alphainv/diagnose/effect_refinement.hpp"
 #include "alphainv/identify/fit_model_file.hpp"
 #include "alphainv/identify/fit_pipeline.hpp"
@@ -340,6 +342,10 @@ struct DiagnoseOutcome {
       d["none_refit_how"] = r.none_refit_how;
       d["after_dropping"] = r.after_dropping;  // run in a place the backward elimination freed
       d["took_in"] = effect_name(r.took_in);  // "none": it took in no earlier round's effect
+      // A member named on trial: the RMS over all runs the diagnosis had to end below (None: none).
+      d["on_trial_reference_rms"] = num(r.on_trial_reference_rms);
+      d["rolled_back"] = r.rolled_back;  // its effects are not in the result
+      d["rolled_back_why"] = r.rolled_back_why;
       out.append(d);
     }
     return out;
@@ -355,7 +361,59 @@ struct DiagnoseOutcome {
     d["model"] = result.ok ? json_loads(format_model_file(model)) : py::object(py::none());
     d["not_separable"] = not_separable();
     d["dropped"] = dropped();
+    d["named"] = named(), d["verdict"] = verdict(), d["discovered"] = discovered();
     d["report"] = result.full_report();
+    return d;
+  }
+  /// DiagnoseResult::named_in_order(): every named effect in order (as omni_fit diagnose --json's
+  /// `named`, without the discovered term: `discovered`).
+  py::list named() const {
+    py::list out;
+    for (const NamedEffect& n : result.named_in_order()) {
+      py::dict d;
+      d["effect"] = effect_name(n.effect), d["error_after"] = num(n.error_after);
+      d["parameters"] = effect_parameters_text(result.effects, n.effect);
+      d["took_in"] = effect_name(n.took_in);
+      out.append(d);
+    }
+    return out;
+  }
+  /// The verdict on the final model against the noise floor (verdict.hpp).
+  py::dict verdict() const {
+    const VerdictReport& v = result.verdict;
+    py::dict d;
+    d["verdict"] = verdict_name(v.verdict), d["text"] = v.text();
+    d["noise_floor"] = num(result.noise_floor.rms);
+    d["noise_floor_cycle_to_cycle"] = num(result.noise_floor.cycle_to_cycle);
+    d["structure_rms"] = num(v.structure_rms), d["fundamental_median"] = num(v.fundamental_median);
+    py::list parts;
+    for (const UnexplainedPart& u : v.unexplained) {
+      py::dict p;
+      p["where"] = u.where, p["size"] = num(u.size), p["ratio"] = num(u.ratio);
+      parts.append(p);
+    }
+    d["unexplained"] = parts;
+    d["before"] = verdict_name(result.verdict_before.verdict);  // on the model given
+    return d;
+  }
+  /// The discovered term tried after the named effects; None when not tried.
+  py::object discovered() const {
+    if (!result.discovered) return py::none();
+    const DiscoveredTermResult& t = *result.discovered;
+    py::dict d;
+    d["ok"] = t.ok, d["kept"] = t.kept, d["message"] = t.message;
+    d["equation"] = t.equation, d["reading"] = t.reading;
+    py::list terms;
+    for (const DiscoveredTermEntry& e : t.terms) {
+      py::dict x;
+      x["name"] = e.name, x["function"] = e.formula;
+      x["coefficient"] = num(e.coefficient), x["standard_error"] = num(e.standard_error);
+      terms.append(x);
+    }
+    d["terms"] = terms;
+    d["error_before"] = num(t.error_before), d["error_after"] = num(t.error_after);
+    d["gap_closed"] = num(t.gap_closed), d["structure_gap_closed"] = num(t.structure_gap_closed);
+    d["carries_remainder"] = t.carries_remainder;
     return d;
   }
   /// DiagnoseResult::not_separable: the candidates the data cannot tell from the named effects.
@@ -394,6 +452,7 @@ DiagnoseOutcome run_diagnose(py::handle dataset, py::object model_obj, py::kwarg
   o.get("fit_window_s", dopt.fit_window_s);
   o.get("significance", dopt.significance);
   o.get("reidentify", dopt.reidentify);
+  o.get("discover", dopt.discover);
   py::object cands = o.raw("candidates");
   if (!cands.is_none()) {
     std::size_t k = 0;
@@ -599,6 +658,16 @@ the residual concentrates, the model with the effects folded in, the reports.)")
       .def_property_readonly("not_separable", &DiagnoseOutcome::not_separable,
                              "candidates the data cannot tell from the named effects: dicts of effect, "
                              "from (the named effects), share, message")
+      .def_property_readonly("named", &DiagnoseOutcome::named,
+                             "every named effect in order (omni_fit diagnose --json's named): dicts of "
+                             "effect, error_after (RMS over all runs after its round), parameters, took_in")
+      .def_property_readonly("verdict", &DiagnoseOutcome::verdict,
+                             "the verdict on the final model: verdict ('explained' or "
+                             "'structure_remains'), text, noise_floor, structure_rms, unexplained "
+                             "(dicts of where, size, ratio), before (the verdict on the model given)")
+      .def_property_readonly("discovered", &DiagnoseOutcome::discovered,
+                             "the discovered term (None: not tried): kept, equation, reading, terms, "
+                             "error_before, error_after, gap_closed, carries_remainder, message")
       .def_property_readonly("dropped", &DiagnoseOutcome::dropped,
                              "effects the rounds named that the model did without in the end (backward "
                              "elimination): dicts of effect, score_with, score_without, message")
@@ -620,6 +689,7 @@ scored by 2-fold cross-validation in time, named only when significantly better 
 dataset: a Dataset or a folder; model: None (fit the dataset first, as omni_fit diagnose), a
 Model or a model.json path. Options (DiagnoseOptions): max_effects, threads, max_fit_runs,
 max_residuals_per_run, fit_window_s, significance, candidates (effect names), reidentify,
+discover (False: no discovered term after the named effects, omni_fit diagnose --no-discover),
 fit_options (a dict of fit() options). GIL released while it runs. Never raises on bad data (ok,
 termination, message say); raises alphainv.Error for an option out of range, naming it.)");
 

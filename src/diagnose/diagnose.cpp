@@ -1752,6 +1752,16 @@ std::string fails_all_runs(double error_after, const DiagnoseRound& rd, double s
   return {};
 }
 
+KeptAloneVerdict judge_kept_alone(double error_after, const DiagnoseRound& rd, double significance,
+                                  bool on_trial_allowed) {
+  KeptAloneVerdict v;
+  v.why = fails_all_runs(error_after, rd, significance);
+  v.named = v.why.empty() ||
+            (on_trial_allowed && not_below_before(error_after, rd.error_before, significance).empty());
+  v.on_trial = v.named && !v.why.empty();
+  return v;
+}
+
 bool pair_eligible(const CandidateScore& c, const RoundModel& model) {
   if (!c.ok || !c.inactive.empty() || c.effect == EffectKind::kNone) return false;
   const EffectSpec& spec = effect_spec(c.effect);
@@ -1881,7 +1891,7 @@ double rms_without_member(const CandidateFitter& fitter, const CandidateScore& s
 }
 
 std::optional<std::size_t> try_pairs(const CandidateFitter& fitter, const Reidentifier& reid,
-                                     DiagnoseRound& rd, CandidateScore* settled) {
+                                     DiagnoseRound& rd, CandidateScore* settled, bool on_trial_allowed) {
   const PreparedRuns& prepared = fitter.prepared();
   const RoundModel& model = fitter.model();
   const DiagnoseOptions& opt = fitter.options();
@@ -2001,14 +2011,22 @@ std::optional<std::size_t> try_pairs(const CandidateFitter& fitter, const Reiden
     const CandidateScore s1 = settle_winner(fitter, alone, {ps.kinds[keep]});
     // Named alone it is a single winner, held to a single's test (fails_all_runs()): a 5.2 ms
     // delay (seed 42) was named saturation alone from saturation + deadzone, 0.0182 over all
-    // runs where `none` refitted gave 0.0149.
-    if (const std::string fails = fails_all_runs(s1.error_after, rd, opt.significance); !fails.empty()) {
-      f.message = why + "; " + effect_name(ps.kinds[keep]) + " alone: " + fails;
+    // runs where `none` refitted gave 0.0149. Failing only the `none` refit, it may be named on
+    // trial (DiagnoseRound::on_trial_reference_rms): the rounds after it must end below that.
+    const KeptAloneVerdict kept = judge_kept_alone(s1.error_after, rd, opt.significance, on_trial_allowed);
+    if (!kept.named) {
+      f.message = why + "; " + effect_name(ps.kinds[keep]) + " alone: " + kept.why;
       return std::nullopt;
     }
+    std::string on_trial;
+    if (kept.on_trial) {
+      rd.on_trial_reference_rms = none_reference_rms(rd);
+      on_trial = " on trial (" + kept.why + "; kept only if the diagnosis ends below " +
+                 num(rd.on_trial_reference_rms, "%.4g") + ")";
+    }
     f = s1;
-    f.message = "named " + std::string(effect_name(ps.kinds[keep])) + " alone from the pair: " + why +
-                (s1.message.empty() ? std::string() : "; " + s1.message);
+    f.message = "named " + std::string(effect_name(ps.kinds[keep])) + " alone from the pair" + on_trial +
+                ": " + why + (s1.message.empty() ? std::string() : "; " + s1.message);
     ps.named = true;
     ps.dropped = ps.kinds[drop];
     *settled = s1;
@@ -2025,7 +2043,8 @@ std::optional<std::size_t> try_pairs(const CandidateFitter& fitter, const Reiden
 DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const PreparedRuns& prepared,
                              const RoundModel& model, const Reidentifier& reid,
                              const std::vector<EffectKind>& catalogue, const DiagnoseOptions& opt,
-                             CandidateScore* settled, std::string* failure, bool pair_fallback) {
+                             CandidateScore* settled, std::string* failure, bool pair_fallback,
+                             bool on_trial_allowed, CandidateScore* none_if_rolled_back) {
   DiagnoseRound rd;
   const RoundStart start = start_round(runs_in, prepared, model, reid, opt);
   rd.error_before = start.error_before;
@@ -2148,11 +2167,31 @@ DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const Prep
                   (r.message.empty() ? std::string() : "; " + r.message);
     }
   }
+  // `none` refitted, offered when nothing is named (below): with the best of `none`'s α-model
+  // variants (start_round()) and the one linear across the widest gap of the sine points' α,
+  // fitted and settled as a candidate; when it does better over all runs than the model as it was.
+  const auto none_offer = [&]() -> std::optional<CandidateScore> {
+    if (!reid.usable()) return std::nullopt;
+    std::optional<AlphaModel> alpha = start.none_alpha;
+    if (const std::optional<AlphaModel> gap = reid.across_gap(model.effects)) {
+      const double r = pooled_rms(prepared.runs, run_rms_with(prepared.runs, prepared.fit_runs, model.effects,
+                                                              prepared.unit_scales, opt, gap),
+                                  prepared.fit_runs);
+      if (std::isfinite(r) && !(r >= start.none_unit_rms)) alpha = gap;
+    }
+    if (!alpha) return std::nullopt;
+    const CandidateScore c =
+        fitter.fit(EffectKind::kNone, model.effects, prepared.unit_scales, alpha, false, false, nullptr);
+    if (!c.ok) return std::nullopt;
+    CandidateScore none = settle_winner(fitter, c);
+    if (std::isfinite(none.error_after) && none.error_after < rd.error_before) return none;
+    return std::nullopt;
+  };
   if (!named_alone) {
     // No single effect: two that mask each other may, fitted together.
     CandidateScore pair;
     const std::optional<std::size_t> named_pair =
-        pair_fallback ? try_pairs(fitter, reid, rd, &pair) : std::nullopt;
+        pair_fallback ? try_pairs(fitter, reid, rd, &pair, on_trial_allowed) : std::nullopt;
     if (named_pair) {
       const PairScore& named = rd.pairs[*named_pair];
       // Both, or the one kept when the other added nothing (PairScore::dropped).
@@ -2160,30 +2199,16 @@ DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const Prep
       rd.named_second = named.dropped == EffectKind::kNone ? named.kinds[1] : EffectKind::kNone;
       rd.error_after = pair.error_after;
       *settled = std::move(pair);
+      // A member on trial: what this round offers when it is rolled back (as though vetoed).
+      if (std::isfinite(rd.on_trial_reference_rms) && none_if_rolled_back != nullptr) {
+        if (std::optional<CandidateScore> none = none_offer()) *none_if_rolled_back = std::move(*none);
+      }
       return rd;
     }
     rd.error_after = rd.error_before;  // `none`: the model stays as it was
     // … unless diagnose() takes `none` refitted (DiagnoseRound::none_refitted), offered in
-    // `settled` when it does better over all runs: with the best of `none`'s α-model variants
-    // (start_round()) and the one linear across the widest gap of the sine points' α, fitted
-    // and settled as a candidate.
-    if (reid.usable()) {
-      std::optional<AlphaModel> alpha = start.none_alpha;
-      if (const std::optional<AlphaModel> gap = reid.across_gap(model.effects)) {
-        const double r = pooled_rms(prepared.runs, run_rms_with(prepared.runs, prepared.fit_runs, model.effects,
-                                                                prepared.unit_scales, opt, gap),
-                                    prepared.fit_runs);
-        if (std::isfinite(r) && !(r >= start.none_unit_rms)) alpha = gap;
-      }
-      if (alpha) {
-        const CandidateScore c =
-            fitter.fit(EffectKind::kNone, model.effects, prepared.unit_scales, alpha, false, false, nullptr);
-        if (c.ok) {
-          CandidateScore none = settle_winner(fitter, c);
-          if (std::isfinite(none.error_after) && none.error_after < rd.error_before) *settled = std::move(none);
-        }
-      }
-    }
+    // `settled` when it does better over all runs.
+    if (std::optional<CandidateScore> none = none_offer()) *settled = std::move(*none);
     return rd;
   }
   rd.named = s.effect;
@@ -2330,6 +2355,15 @@ double located_share(const std::vector<DiagnoseRun>& runs, const DisturbanceFind
   return all > 0.0 ? inside / all : 0.0;
 }
 
+/// The RMS of θ − θ_sim over every sample of every run; +inf without samples.
+double pooled_residual_rms(const std::vector<ResidualSeries>& series) {
+  double ss = 0.0, n = 0.0;
+  for (const ResidualSeries& r : series) {
+    for (double e : r.residual) ss += e * e, n += 1.0;
+  }
+  return n > 0.0 ? std::sqrt(ss / n) : kInf;
+}
+
 }  // namespace
 
 DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_given,
@@ -2397,6 +2431,57 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
     return judge_residual(residual_series(runs_in, sims), res.noise_floor).verdict;
   };
   std::size_t named_so_far = 0;
+  // A round that named a member on trial (DiagnoseRound::on_trial_reference_rms): the state
+  // before it, to roll back to when the diagnosis does not end below the round's reference.
+  struct BeforeTrial {
+    std::size_t round = 0;  // the index of the round named on trial
+    RoundModel model;
+    std::vector<EffectKind> effects_named;
+    std::size_t named_so_far = 0;
+    ResidualVerdict verdict_now = ResidualVerdict::kStructureRemains;
+    CandidateScore none_offer;  // the round's `none` refit offered were nothing named (ok: there is one)
+  };
+  std::optional<BeforeTrial> before_trial;
+  bool on_trial_allowed = true;  // at most one round per diagnosis on trial
+  // A round that named nothing: the model's own, refitted (DiagnoseRound::none_refitted), only
+  // when it explains the data to the noise floor and the model as it came (verdict_now) does
+  // not. Two refits, the first explained taken: `settled` (coefficient factors fitted by output
+  // error), and the α-model linear across the gap of the sine points' α as the sine points give
+  // it (unit factors): the factors' fit weighs the runs' transients, whose error near resonance
+  // can outweigh every sine run's gain and phase.
+  const auto end_with_none = [&](DiagnoseRound& last, const CandidateScore& settled) {
+    std::vector<std::pair<CandidateScore, std::string>> refits;
+    if (verdict_now != ResidualVerdict::kExplained) {
+      if (settled.ok && settled.effect == EffectKind::kNone) {
+        refits.emplace_back(settled, "its α-model re-identified from the sine runs, the coefficient "
+                                     "factors fitted by output error");
+      }
+      if (std::optional<AlphaModel> gap = reid.across_gap(model.effects)) {
+        CandidateScore c;
+        c.ok = true;
+        c.effects = model.effects;
+        c.scales = prepared.unit_scales;
+        c.alpha = std::move(gap);
+        refits.emplace_back(std::move(c), "the α-model linear across the widest gap of the sine points' α, "
+                                          "as the sine points give it (unit coefficient factors)");
+      }
+    }
+    for (auto& [c, how] : refits) {
+      const auto sims = simulate_diagnosed(runs_in, c.effects, c.scales, opt.simulation, opt.threads, c.alpha);
+      const std::vector<ResidualSeries> series = residual_series(runs_in, sims);
+      c.error_after = pooled_residual_rms(series);
+      if (!(c.error_after < last.error_before)) continue;
+      if (judge_residual(series, res.noise_floor).verdict != ResidualVerdict::kExplained) continue;
+      last.none_refitted = true;
+      last.none_refit_how = how;
+      last.error_after = c.error_after;
+      model.effects = c.effects;
+      model.scales = c.scales;
+      model.alpha = c.alpha;
+      break;
+    }
+    res.termination = DiagnoseTermination::kNoneNamed;
+  };
   // The rounds (forward steps) over `cat`: while an effect is named, structure remains and
   // max_effects leaves room. `after_dropping`: a pass after the backward elimination freed places.
   const auto run_rounds = [&](const std::vector<EffectKind>& cat, bool after_dropping) {
@@ -2407,9 +2492,16 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
       const bool pair_fallback = named_so_far + 2 <= opt.max_effects &&
                                  std::isfinite(res.noise_floor.rms) &&
                                  verdict_now == ResidualVerdict::kStructureRemains;
+      const bool may_try = on_trial_allowed && !after_dropping;
+      CandidateScore none_offer;
       DiagnoseRound rd = diagnose_round(runs_in, prepared, model, reid, cat, opt, &settled,
-                                        &failure, pair_fallback);
+                                        &failure, pair_fallback, may_try, &none_offer);
       rd.after_dropping = after_dropping;
+      if (std::isfinite(rd.on_trial_reference_rms)) {
+        before_trial = BeforeTrial{res.rounds.size(), model, res.effects_named, named_so_far, verdict_now,
+                                   std::move(none_offer)};
+        on_trial_allowed = false;
+      }
       const EffectKind named = rd.named;
       const EffectKind named_second = rd.named_second;
       res.rounds.push_back(std::move(rd));
@@ -2419,48 +2511,7 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
         break;
       }
       if (named == EffectKind::kNone) {
-        DiagnoseRound& last = res.rounds.back();
-        // The model's own, refitted (DiagnoseRound::none_refitted), only when it explains the data
-        // to the noise floor and the model as it came (verdict_now) does not. Two refits, the
-        // first explained taken: `settled` (coefficient factors fitted by output error), and the
-        // α-model linear across the gap of the sine points' α as the sine points give it (unit
-        // factors): the factors' fit weighs the runs' transients, whose error near resonance can
-        // outweigh every sine run's gain and phase.
-        std::vector<std::pair<CandidateScore, std::string>> refits;
-        if (verdict_now != ResidualVerdict::kExplained) {
-          if (settled.ok && settled.effect == EffectKind::kNone) {
-            refits.emplace_back(settled, "its α-model re-identified from the sine runs, the coefficient "
-                                         "factors fitted by output error");
-          }
-          if (std::optional<AlphaModel> gap = reid.across_gap(model.effects)) {
-            CandidateScore c;
-            c.ok = true;
-            c.effects = model.effects;
-            c.scales = prepared.unit_scales;
-            c.alpha = std::move(gap);
-            refits.emplace_back(std::move(c), "the α-model linear across the widest gap of the sine points' α, "
-                                              "as the sine points give it (unit coefficient factors)");
-          }
-        }
-        for (auto& [c, how] : refits) {
-          const auto sims = simulate_diagnosed(runs_in, c.effects, c.scales, opt.simulation, opt.threads, c.alpha);
-          const std::vector<ResidualSeries> series = residual_series(runs_in, sims);
-          double ss = 0.0, n = 0.0;
-          for (const ResidualSeries& r : series) {
-            for (double e : r.residual) ss += e * e, n += 1.0;
-          }
-          c.error_after = n > 0.0 ? std::sqrt(ss / n) : kInf;
-          if (!(c.error_after < last.error_before)) continue;
-          if (judge_residual(series, res.noise_floor).verdict != ResidualVerdict::kExplained) continue;
-          last.none_refitted = true;
-          last.none_refit_how = how;
-          last.error_after = c.error_after;
-          model.effects = c.effects;
-          model.scales = c.scales;
-          model.alpha = c.alpha;
-          break;
-        }
-        res.termination = DiagnoseTermination::kNoneNamed;
+        end_with_none(res.rounds.back(), settled);
         break;
       }
       // The named effect stays in the model (and is refitted in the next round).
@@ -2492,41 +2543,82 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
       }
     }
   };
-  run_rounds(catalogue, false);
-  // --- named work (backward elimination): an effect named early, before the effects named
-  // after it were in the model, may no longer earn its place (drop_redundant_effects()).
-  // Then, when it dropped one and structure remains, the rounds once more without the dropped
-  // (forward-backward stepwise): the effect the dropped one stood in for may now be found in the
-  // freed place (gravity + a 4 ms delay: Coulomb friction named first, dropped after gravity;
-  // the delay then named). Once: a dropped effect does not come back, so it cannot cycle.
-  // The effects drop_redundant_effects() drops, out of effects_named and into `dropped`.
-  const auto drop_redundant = [&] {
-    for (DroppedEffect& d : drop_redundant_effects(runs_in, prepared, model, res.effects_named, opt)) {
-      res.effects_named.erase(std::find(res.effects_named.begin(), res.effects_named.end(), d.effect));
-      res.dropped.push_back(std::move(d));
+  // The rounds, then the backward elimination (and the rounds once more in the places it frees).
+  const auto drops_and_rounds_again = [&] {
+    // --- named work (backward elimination): an effect named early, before the effects named
+    // after it were in the model, may no longer earn its place (drop_redundant_effects()).
+    // Then, when it dropped one and structure remains, the rounds once more without the dropped
+    // (forward-backward stepwise): the effect the dropped one stood in for may now be found in the
+    // freed place (gravity + a 4 ms delay: Coulomb friction named first, dropped after gravity;
+    // the delay then named). Once: a dropped effect does not come back, so it cannot cycle.
+    // The effects drop_redundant_effects() drops, out of effects_named and into `dropped`.
+    const auto drop_redundant = [&] {
+      for (DroppedEffect& d : drop_redundant_effects(runs_in, prepared, model, res.effects_named, opt)) {
+        res.effects_named.erase(std::find(res.effects_named.begin(), res.effects_named.end(), d.effect));
+        res.dropped.push_back(std::move(d));
+      }
+    };
+    if (res.termination != DiagnoseTermination::kFailure && opt.drop_redundant) {
+      drop_redundant();
+      if (!res.dropped.empty() && named_so_far >= res.dropped.size()) {
+        named_so_far -= res.dropped.size();
+        verdict_now = verdict_of_model();
+        if (verdict_now == ResidualVerdict::kStructureRemains && named_so_far < opt.max_effects) {
+          std::vector<EffectKind> rest;
+          for (EffectKind k : catalogue) {
+            if (std::none_of(res.dropped.begin(), res.dropped.end(),
+                             [&](const DroppedEffect& d) { return d.effect == k; }))
+              rest.push_back(k);
+          }
+          const std::size_t before = res.effects_named.size();
+          run_rounds(rest, true);
+          // The effects named in the freed places are checked as the others were (not the
+          // dropped again: they are out of the catalogue).
+          if (res.termination != DiagnoseTermination::kFailure && res.effects_named.size() > before)
+            drop_redundant();
+        } else if (verdict_now == ResidualVerdict::kExplained) {
+          res.termination = DiagnoseTermination::kExplained;
+        }
+      }
     }
   };
-  if (res.termination != DiagnoseTermination::kFailure && opt.drop_redundant) {
-    drop_redundant();
-    if (!res.dropped.empty() && named_so_far >= res.dropped.size()) {
-      named_so_far -= res.dropped.size();
-      verdict_now = verdict_of_model();
-      if (verdict_now == ResidualVerdict::kStructureRemains && named_so_far < opt.max_effects) {
-        std::vector<EffectKind> rest;
-        for (EffectKind k : catalogue) {
-          if (std::none_of(res.dropped.begin(), res.dropped.end(),
-                           [&](const DroppedEffect& d) { return d.effect == k; }))
-            rest.push_back(k);
-        }
-        const std::size_t before = res.effects_named.size();
-        run_rounds(rest, true);
-        // The effects named in the freed places are checked as the others were (not the
-        // dropped again: they are out of the catalogue).
-        if (res.termination != DiagnoseTermination::kFailure && res.effects_named.size() > before)
-          drop_redundant();
-      } else if (verdict_now == ResidualVerdict::kExplained) {
-        res.termination = DiagnoseTermination::kExplained;
+  run_rounds(catalogue, false);
+  drops_and_rounds_again();
+  // --- a member named on trial (DiagnoseRound::on_trial_reference_rms): the diagnosis, with the
+  // effects named after it and the backward elimination, must end below the `none` refit of its
+  // round over all runs; else its round and those after it are rolled back, and the diagnosis
+  // goes on from the model as it was before it as though the member had been vetoed: that round
+  // named nothing (its `none` refit offered, end_with_none()), then the backward elimination.
+  if (before_trial && res.termination != DiagnoseTermination::kFailure) {
+    DiagnoseRound& trial = res.rounds[before_trial->round];
+    const double reference = trial.on_trial_reference_rms;
+    const auto sims = simulate_diagnosed(runs_in, model.effects, model.scales, opt.simulation, opt.threads, model.alpha);
+    const double ended = pooled_residual_rms(residual_series(runs_in, sims));
+    if (!(ended <= reference)) {
+      std::string was = effect_name(trial.named);
+      for (PairScore& p : trial.pairs) {
+        if (!p.named) continue;
+        p.named = false;
+        p.fit.message = "rolled back: " + p.fit.message;
+        was += std::string(" (kept alone from the pair ") + effect_name(p.kinds[0]) + " + " +
+               effect_name(p.kinds[1]) + ")";
       }
+      trial.rolled_back_why = was + " named on trial, rolled back: the diagnosis ended at " + num(ended, "%.4g") +
+                              " over all runs with it, not below " + num(reference, "%.4g") +
+                              " (none refitted in that round)";
+      for (std::size_t r = before_trial->round; r < res.rounds.size(); ++r) res.rounds[r].rolled_back = true;
+      trial.named = EffectKind::kNone;
+      trial.named_second = EffectKind::kNone;
+      trial.took_in = EffectKind::kNone;
+      trial.error_after = trial.error_before;
+      model = std::move(before_trial->model);
+      res.effects_named = std::move(before_trial->effects_named);
+      named_so_far = before_trial->named_so_far;
+      verdict_now = before_trial->verdict_now;
+      res.dropped.clear();  // (the backward elimination runs after the rounds: none before the trial)
+      end_with_none(trial, before_trial->none_offer);
+      before_trial.reset();
+      drops_and_rounds_again();
     }
   }
   // --- a provisional estimate judged again, with the effects the rounds named: named when the

@@ -54,6 +54,10 @@ std::string round_named_text(const DiagnoseRound& rd) {
   if (rd.named_second != EffectKind::kNone) s += std::string(" + ") + effect_name(rd.named_second);
   if (rd.took_in != EffectKind::kNone)
     s += std::string(", taking in the ") + effect_name(rd.took_in) + " already in the model";
+  if (!rd.rolled_back_why.empty()) return s + "; " + rd.rolled_back_why;  // (the round on trial)
+  if (std::isfinite(rd.on_trial_reference_rms))
+    s += " on trial (the diagnosis to end below " + fmt(rd.on_trial_reference_rms) + ")";
+  if (rd.rolled_back) s += "; rolled back with the round named on trial";
   return s;
 }
 
@@ -168,6 +172,25 @@ std::string DiagnoseResult::brief_report() const {
                                                        : "; structure remains";
   }
   return named_text(effects_named) + b + v;
+}
+
+std::vector<NamedEffect> DiagnoseResult::named_in_order() const {
+  std::vector<NamedEffect> out;
+  if (disturbance.named) out.push_back({EffectKind::kExternalDisturbance, disturbance.error_after, EffectKind::kNone});
+  for (std::size_t r = 0; r < rounds.size(); ++r) {
+    const DiagnoseRound& rd = rounds[r];
+    if (rd.rolled_back) continue;  // (its effects are not in the result)
+    for (EffectKind k : {rd.named, rd.named_second}) {  // (a pair: both, the round's error after)
+      if (k == EffectKind::kNone) continue;
+      if (std::any_of(dropped.begin(), dropped.end(), [&](const DroppedEffect& d) { return d.effect == k; }))
+        continue;
+      if (std::any_of(rounds.begin() + static_cast<std::ptrdiff_t>(r) + 1, rounds.end(),
+                      [&](const DiagnoseRound& later) { return !later.rolled_back && later.took_in == k; }))
+        continue;
+      out.push_back({k, rd.error_after, k == rd.named ? rd.took_in : EffectKind::kNone});
+    }
+  }
+  return out;
 }
 
 std::string DiagnoseResult::full_report() const {

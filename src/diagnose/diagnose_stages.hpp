@@ -467,6 +467,18 @@ double none_reference_rms(const DiagnoseRound& rd);
 /// else why not. (A pair is held to not_below_before() only: try_pairs().)
 std::string fails_all_runs(double error_after, const DiagnoseRound& rd, double significance);
 
+/// The member a named pair keeps alone (the other added nothing: try_pairs()), settled alone:
+/// `named` when it passes fails_all_runs(); with `on_trial_allowed`, also when it fails only
+/// the `none` refit (not_below_before() passes): then `on_trial` (DiagnoseRound::
+/// on_trial_reference_rms). `why`: fails_all_runs()'s reason (empty when it passed).
+struct KeptAloneVerdict {
+  bool named = false;
+  bool on_trial = false;
+  std::string why;
+};
+KeptAloneVerdict judge_kept_alone(double error_after, const DiagnoseRound& rd, double significance,
+                                  bool on_trial_allowed);
+
 /// Pairs fitted jointly by the fallback at most (each with the iteration limits of a single).
 inline constexpr std::size_t kMaxPairFits = 3;
 
@@ -511,9 +523,11 @@ std::vector<PairStart> choose_pairs(const CandidateFitter& fitter, const Reident
 /// Each member of the named pair must be needed: the settled pair's RMS over all runs at most
 /// (1 − significance/2) × rms_without_member() of it; otherwise the member whose removal costs
 /// least is dropped (PairScore::dropped) and the other named alone when, settled alone from the
-/// pair's values, it passes improves_all_runs().
+/// pair's values, it passes fails_all_runs(); with `on_trial_allowed`, also when it fails only
+/// the `none` refit (not_below_before() passes): then on trial, rd.on_trial_reference_rms set.
 std::optional<std::size_t> try_pairs(const CandidateFitter& fitter, const Reidentifier& reid,
-                                     DiagnoseRound& rd, CandidateScore* settled);
+                                     DiagnoseRound& rd, CandidateScore* settled,
+                                     bool on_trial_allowed = false);
 
 /// `e` with the parameters of `kind` at their defaults (the effect off).
 Effects without_member(const Effects& e, EffectKind kind);
@@ -526,12 +540,16 @@ double rms_without_member(const CandidateFitter& fitter, const CandidateScore& s
 /// cross-validated and chosen; with `pair_fallback`, when nothing is named, try_pairs(). Returns
 /// the round; *settled receives the settled winner when it names one (rd.named ≠ none; a pair:
 /// both effects in it, rd.named_second ≠ none); *failure a message when `none` could not be
-/// fitted.
+/// fitted. `on_trial_allowed`: try_pairs() may name a member on trial; the round then also
+/// writes to *none_if_rolled_back (when given) the `none` refit it offers when nothing is named
+/// (left as it was when there is none), for diagnose() to go on with when the trial is rolled back.
 DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const PreparedRuns& prepared,
                              const RoundModel& model, const Reidentifier& reid,
                              const std::vector<EffectKind>& catalogue,
                              const DiagnoseOptions& options, CandidateScore* settled,
-                             std::string* failure, bool pair_fallback = false);
+                             std::string* failure, bool pair_fallback = false,
+                             bool on_trial_allowed = false,
+                             CandidateScore* none_if_rolled_back = nullptr);
 
 /// The rounds of diagnose() after the options and runs are checked: the external_disturbance
 /// stage first (when `catalogue` has it), then the rounds and the verdict; returns `res` filled.

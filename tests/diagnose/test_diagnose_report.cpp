@@ -127,6 +127,87 @@ TEST(DiagnoseReport, BriefAndFullReportOfAHandBuiltResult) {
       << none.full_report();
 }
 
+TEST(DiagnoseReport, RoundsOnTrialAndRolledBackSaySo) {
+  // Round 1 named a member on trial and was rolled back (it names nothing now); round 2 ran with
+  // that member in the model and is rolled back with it; round 3 holds its trial.
+  DiagnoseResult r = hand_built();
+  DiagnoseRound trial = r.rounds.front();
+  trial.named = EffectKind::kNone;
+  trial.error_after = trial.error_before;
+  trial.on_trial_reference_rms = 0.0149;
+  trial.rolled_back = true;
+  trial.rolled_back_why = "saturation (kept alone from the pair saturation + deadzone) named on trial, rolled "
+                          "back: the diagnosis ended at 0.01794 over all runs with it, not below 0.0149";
+  DiagnoseRound after = r.rounds.front();
+  after.rolled_back = true;
+  DiagnoseRound held = r.rounds.front();
+  held.on_trial_reference_rms = 0.0248;
+  r.rounds = {trial, after, held};
+  const std::string full = r.full_report();
+  EXPECT_NE(full.find("Round 1: none; saturation (kept alone from the pair saturation + deadzone) named on "
+                      "trial, rolled back: the diagnosis ended at 0.01794 over all runs with it, not below "
+                      "0.0149 (RMS 0.02 → 0.02)\n"),
+            std::string::npos)
+      << full;
+  EXPECT_NE(full.find("Round 2: offset_torque; rolled back with the round named on trial (RMS 0.02 → 0.01)\n"),
+            std::string::npos)
+      << full;
+  EXPECT_NE(full.find("Round 3: offset_torque on trial (the diagnosis to end below 0.0248) (RMS 0.02 → 0.01)\n"),
+            std::string::npos)
+      << full;
+  RunData d;
+  DiagnoseRun a;
+  a.data = &d;
+  const std::string md = diagnose_report_markdown(r, {a}, "data/x", "fitted");
+  EXPECT_NE(md.find("### Round 2: offset_torque; rolled back with the round named on trial (RMS error 0.02 → "
+                    "0.01)\n"),
+            std::string::npos)
+      << md;
+}
+
+TEST(DiagnoseReport, NamedInOrderLeavesOutWhatWasRolledBackDroppedOrTakenIn) {
+  DiagnoseResult r;
+  r.disturbance.named = true;
+  r.disturbance.error_after = 0.05;
+  const auto round = [](EffectKind a, EffectKind b, double after) {
+    DiagnoseRound rd;
+    rd.named = a;
+    rd.named_second = b;
+    rd.error_after = after;
+    return rd;
+  };
+  DiagnoseRound trial = round(EffectKind::kNone, EffectKind::kNone, 0.04);  // rolled back: names nothing
+  trial.rolled_back = true;
+  DiagnoseRound after_trial = round(EffectKind::kSaturation, EffectKind::kNone, 0.03);
+  after_trial.rolled_back = true;
+  const DiagnoseRound coulomb = round(EffectKind::kCoulombFriction, EffectKind::kNone, 0.02);
+  const DiagnoseRound pair = round(EffectKind::kGravity, EffectKind::kTimeDelay, 0.01);
+  DiagnoseRound stribeck = round(EffectKind::kStribeckFriction, EffectKind::kNone, 0.008);
+  stribeck.took_in = EffectKind::kCoulombFriction;
+  DiagnoseRound deadzone = round(EffectKind::kDeadzone, EffectKind::kNone, 0.007);
+  r.rounds = {trial, after_trial, coulomb, pair, stribeck, deadzone};
+  DroppedEffect dropped;
+  dropped.effect = EffectKind::kDeadzone;
+  r.dropped = {dropped};
+  const std::vector<NamedEffect> n = r.named_in_order();
+  ASSERT_EQ(n.size(), 4u);
+  EXPECT_EQ(n[0].effect, EffectKind::kExternalDisturbance);
+  EXPECT_DOUBLE_EQ(n[0].error_after, 0.05);
+  EXPECT_EQ(n[1].effect, EffectKind::kGravity);
+  EXPECT_EQ(n[2].effect, EffectKind::kTimeDelay);
+  EXPECT_DOUBLE_EQ(n[1].error_after, 0.01);
+  EXPECT_DOUBLE_EQ(n[2].error_after, 0.01);  // (a pair: the pair's)
+  EXPECT_EQ(n[3].effect, EffectKind::kStribeckFriction);
+  EXPECT_EQ(n[3].took_in, EffectKind::kCoulombFriction);
+  EXPECT_EQ(n[1].took_in, EffectKind::kNone);
+  // A generalisation in a rolled-back round took nothing in: the Coulomb level stays.
+  r.rounds[4].rolled_back = true;
+  const std::vector<NamedEffect> m = r.named_in_order();
+  ASSERT_EQ(m.size(), 4u);
+  EXPECT_EQ(m[1].effect, EffectKind::kCoulombFriction);
+  EXPECT_DOUBLE_EQ(m[1].error_after, 0.02);
+}
+
 TEST(DiagnoseReport, ReportsOfARealDiagnosis) {
   // The sweep's dataset with a hidden offset torque, two candidates, 4 fit runs of 1.5 s.
   Effects hidden;

@@ -346,6 +346,40 @@ TEST(DiagnoseStages, TheAllRunsReferenceIsTheLowestNoneOfTheRound) {
   EXPECT_DOUBLE_EQ(none_reference_rms(bare), 0.02);
 }
 
+TEST(DiagnoseStages, AMemberKeptAloneFailingOnlyTheNoneRefitIsNamedOnTrial) {
+  // The member a pair keeps alone (the other added nothing), settled alone over all runs.
+  DiagnoseRound rd;
+  rd.error_before = 0.04649;  // gravity + a 4 ms delay, seed 41, round 1
+  CandidateScore none = scored(EffectKind::kNone, 0.01);
+  none.error_after = 0.02483;  // `none` refitted
+  rd.candidates = {none};
+  // Below `none` refitted: named, not on trial (the on-trial permission changes nothing).
+  for (bool allowed : {false, true}) {
+    const KeptAloneVerdict v = judge_kept_alone(0.0240, rd, 0.1, allowed);
+    EXPECT_TRUE(v.named);
+    EXPECT_FALSE(v.on_trial);
+    EXPECT_EQ(v.why, "");
+  }
+  // Coulomb friction kept alone from saturation + Coulomb: 0.0355, below the error before by
+  // significance/2 but above `none` refitted. On trial when allowed, else vetoed; the same reason.
+  const KeptAloneVerdict trial = judge_kept_alone(0.0355, rd, 0.1, true);
+  EXPECT_TRUE(trial.named);
+  EXPECT_TRUE(trial.on_trial);
+  EXPECT_NE(trial.why.find("above that of none refitted, 0.02483"), std::string::npos) << trial.why;
+  const KeptAloneVerdict vetoed = judge_kept_alone(0.0355, rd, 0.1, false);
+  EXPECT_FALSE(vetoed.named);
+  EXPECT_FALSE(vetoed.on_trial);
+  EXPECT_EQ(vetoed.why, trial.why);
+  // Not below the error before by significance/2 (0.95 × 0.04649 = 0.04417): never on trial.
+  for (bool allowed : {false, true}) {
+    const KeptAloneVerdict v = judge_kept_alone(0.0445, rd, 0.1, allowed);
+    EXPECT_FALSE(v.named);
+    EXPECT_FALSE(v.on_trial);
+    EXPECT_NE(v.why.find("not below (1 − significance/2) × 0.04649"), std::string::npos) << v.why;
+  }
+  EXPECT_TRUE(judge_kept_alone(0.0441, rd, 0.1, true).on_trial);
+}
+
 TEST(DiagnoseStages, ChooseTakesTheSimplerWithinFivePercentAndRefusesASubTickDelay) {
   // Hand-built candidates without α-models: choose_winner() fits nothing then.
   const ChooseSetup setup;

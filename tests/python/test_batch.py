@@ -63,7 +63,8 @@ def test_diagnose_many_rows(small):
 def test_sweep_confusion_matrix():
     # omni_fit sweep --quick's cases for none and offset_torque at seed 4 (its ctest names the
     # offset there), the search limited to the offset to keep it short.
-    res = alphainv.batch.sweep([4], ["none", "offset_torque"], workers=2, candidates=["offset_torque"])
+    res = alphainv.batch.sweep([4], ["none", "offset_torque"], workers=2, candidates=["offset_torque"],
+                               discover=False)
     assert res.matrix == {"none": {"none": 1}, "offset_torque": {"offset_torque": 1}}
     assert [r["hidden"] for r in res.rows] == ["none", "offset_torque"]
     offset = res.rows[1]

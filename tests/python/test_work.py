@@ -123,8 +123,18 @@ def test_validate_the_paper_model_on_generated_runs():
 
 def test_diagnose_names_a_hidden_offset_torque():
     ds = alphainv.Dataset.generate(4, pose=4, effects="offset_torque=0.02")
-    d = alphainv.diagnose(ds, threads=2)
-    assert d.ok and d.effects_named == ["offset_torque"]
+    # (no discovered term: tried after the offset and not kept, 56 s of 58: the next test)
+    d = alphainv.diagnose(ds, threads=2, discover=False)
+    assert d.ok and d.effects_named == ["offset_torque"] and d.discovered is None
+    assert [n["effect"] for n in d.named] == ["offset_torque"]
+    assert d.named[0]["error_after"] == pytest.approx(d.error_after) and "offset_v = 0.0" in d.named[0]["parameters"]
+    # the verdict: a structure 4x the noise floor (6.6e-5 rad: 5e-5 noise, 1.5e-4 encoder steps)
+    # remains on a sine run; the floor is the plant's
+    v = d.verdict
+    assert v["verdict"] == "structure_remains" and v["text"].startswith("structure remains")
+    assert v["noise_floor"] == pytest.approx(6.6e-5, rel=0.15)
+    assert v["unexplained"] and all(u["ratio"] > 3.0 and u["size"] > 0.0 for u in v["unexplained"])
+    assert d.to_dict()["verdict"] == v and d.to_dict()["named"] == d.named
     assert d.effects.offset_v == pytest.approx(0.02, rel=0.15)
     assert d.error_after < 0.5 * d.error_before
     assert d.model.effects.offset_v == d.effects.offset_v
@@ -137,6 +147,9 @@ def test_diagnose_names_a_hidden_offset_torque():
     # the winner was named: no runner-up was tried
     assert first["none_at_runner_up_breakpoints"] is None
     assert first["took_in"] == "none"  # an offset generalises nothing
+    # named outright: not on trial, nothing rolled back
+    assert first["on_trial_reference_rms"] is None
+    assert first["rolled_back"] is False and first["rolled_back_why"] == ""
     # candidates the data cannot tell from the named effects: spanned by named ones only
     for n in d.not_separable:
         assert set(n["from"]) <= set(d.effects_named) and n["effect"] not in d.effects_named
@@ -147,3 +160,20 @@ def test_diagnose_names_a_hidden_offset_torque():
         assert x["effect"] not in d.effects_named and x["effect"] in x["message"]
         assert not x["score_with"] <= 0.9 * x["score_without"]
     assert d.to_dict()["dropped"] == d.dropped
+
+
+def test_diagnose_gives_the_discovered_term_that_carries_a_friction_no_candidate_has(small):
+    # A Coulomb friction of 0.03 V hidden, the offset the only candidate: nothing is named and the
+    # discovered term (sparse regression, then output error) carries a Coulomb-like level near it.
+    ds = alphainv.Dataset.generate(21, effects="coulomb_friction=0.03", **small)
+    d = alphainv.diagnose(ds, threads=2, candidates=["offset_torque"])
+    assert d.ok and d.effects_named == [] and d.named == []
+    x = d.discovered
+    assert x["ok"] and x["kept"] and x["message"] == ""
+    sigma = [t for t in x["terms"] if t["function"] == "sigma"]
+    assert len(sigma) == 1 and -sigma[0]["coefficient"] == pytest.approx(0.03, rel=0.15)
+    assert "Coulomb-like level" in x["reading"] and "sigma" in x["equation"]
+    assert x["error_after"] == pytest.approx(d.error_after) and x["error_before"] == pytest.approx(d.error_before)
+    assert x["gap_closed"] > 0.5 and x["error_after"] < 0.5 * x["error_before"]
+    assert x["carries_remainder"] == (d.verdict["verdict"] == "explained")
+    assert d.to_dict()["discovered"] == x

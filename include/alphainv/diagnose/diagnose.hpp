@@ -240,6 +240,25 @@ struct DiagnoseRound {
   /// term of that form); kNone otherwise. The taken-in effect is no longer in the model, nor in
   /// DiagnoseResult::effects_named.
   EffectKind took_in = EffectKind::kNone;
+  /// A member kept alone from the named pair (PairScore::dropped) whose RMS over all runs was
+  /// below the round's error before (not_below_before()) but above a `none` this round refitted
+  /// (fails_all_runs()) is named on trial: the effects the later rounds name with it in the
+  /// model must take the diagnosis below this RMS over all runs (none_reference_rms() of the
+  /// round), else this round and the ones after it are rolled back (`rolled_back`): this round
+  /// then names nothing (`named` none, `rolled_back_why` says what it had named) and the diagnosis
+  /// goes on as though the member had been vetoed. NaN otherwise. (On
+  /// gravity + a 4 ms delay the Coulomb friction kept alone from saturation + Coulomb, 0.0355
+  /// against `none` refitted 0.0248, opened the rounds that named gravity and the delay, and was
+  /// dropped after them.) At most one round per diagnosis, and not after an effect was dropped.
+  double on_trial_reference_rms = std::numeric_limits<double>::quiet_NaN();
+  /// Rolled back: the round that named a member on trial (on_trial_reference_rms) when the
+  /// diagnosis did not end below its reference, and every round after it (their effects, named
+  /// with the member in the model, are not in the result). Rounds after the last rolled-back
+  /// one ran from the model as it was before the trial.
+  bool rolled_back = false;
+  /// On the round that named a member on trial and was rolled back: what it had named, and the
+  /// RMS over all runs the diagnosis ended at with it.
+  std::string rolled_back_why;
 };
 
 /// The external_disturbance stage (before the rounds, when the candidates include it): a torque
@@ -273,6 +292,16 @@ struct DisturbanceFinding {
   double touched_after = std::numeric_limits<double>::quiet_NaN();
   double rms_v = 0.0;  ///< RMS of d̂ over the runs with intervals [command unit]
   std::size_t intervals = 0;  ///< over all runs
+};
+
+/// A named effect of the result in the order it was named (DiagnoseResult::named_in_order()).
+struct NamedEffect {
+  EffectKind effect = EffectKind::kNone;
+  /// The RMS of θ − θ_sim over all runs after its round (a pair: the pair's; the disturbance:
+  /// with d̂ known) [position unit].
+  double error_after = std::numeric_limits<double>::quiet_NaN();
+  /// The effect already in the model its round's generalisation took in (DiagnoseRound::took_in).
+  EffectKind took_in = EffectKind::kNone;
 };
 
 /// Why diagnose() stopped (like Ceres' TerminationType).
@@ -345,6 +374,11 @@ struct DiagnoseResult {
   /// with their parameters, every round's candidates (score, folds, RMS after, note), where
   /// the residual concentrates before and after, and the verdict (its last line).
   std::string full_report() const;
+  /// The named effects in the order they were named, each with the error after its round: the
+  /// external disturbance when named (located before the rounds), then every round's (both of a
+  /// pair) but those of rounds rolled back, effects dropped after the rounds and effects a later
+  /// round's generalisation took in. The same effects as effects_named (not the discovered term).
+  std::vector<NamedEffect> named_in_order() const;
 };
 
 /// Runs the workflow (file comment). Never throws: options that validate() refuses, runs too
