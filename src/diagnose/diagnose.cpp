@@ -48,6 +48,11 @@ using common::parallel_for;
 /// A number in a finding: printf format `f`, by default 3 significant digits.
 std::string num(double x, const char* f = "%.3g") { return common::format(f, x); }
 
+/// `head`, then "; " and `note` when there is a note (a candidate's message after a new reason).
+std::string then_note(std::string head, const std::string& note) {
+  return note.empty() ? head : std::move(head) + "; " + note;
+}
+
 SimulationResult simulate_run(const DiagnoseRun& run, const JointModelAtPose& m,
                               const SimulationOptions& so) {
   const RunData& d = *run.data;
@@ -2025,16 +2030,16 @@ std::optional<std::size_t> try_pairs(const CandidateFitter& fitter, const Reiden
                  num(rd.on_trial_reference_rms, "%.4g") + ")";
     }
     f = s1;
-    f.message = "named " + std::string(effect_name(ps.kinds[keep])) + " alone from the pair" + on_trial +
-                ": " + why + (s1.message.empty() ? std::string() : "; " + s1.message);
+    f.message = then_note("named " + std::string(effect_name(ps.kinds[keep])) + " alone from the pair" +
+                              on_trial + ": " + why,
+                          s1.message);
     ps.named = true;
     ps.dropped = ps.kinds[drop];
     *settled = s1;
     return best;
   }
   f = s;
-  f.message = "named as a pair (neither alone was named)" +
-              (s.message.empty() ? std::string() : "; " + s.message);
+  f.message = then_note("named as a pair (neither alone was named)", s.message);
   ps.named = true;
   *settled = s;
   return best;
@@ -2092,10 +2097,12 @@ DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const Prep
             m.found_rms <= (1.0 - 0.5 * opt.significance) * start.model_fit_rms) {
           CandidateScore fitted = fitter.fit(kind, m.effects, m.start_scales, m.alpha, false, false,
                                              &pending[rd.candidates.size()]);
-          fitted.message = "searched in the model as it is (its α-model and factors: RMS over the fit runs " +
-                           num(m.found_rms, "%.4g") + " against " + num(start.model_fit_rms, "%.4g") +
-                           "), the search with the α-model re-identified not below (1 − significance/2) × "
-                           "that of none" + (fitted.message.empty() ? "" : "; " + fitted.message);
+          fitted.message = then_note("searched in the model as it is (its α-model and factors: RMS over the "
+                                     "fit runs " + num(m.found_rms, "%.4g") + " against " +
+                                         num(start.model_fit_rms, "%.4g") +
+                                         "), the search with the α-model re-identified not below "
+                                         "(1 − significance/2) × that of none",
+                                     fitted.message);
           rd.candidates.push_back(fitted);
           continue;
         }
@@ -2143,7 +2150,7 @@ DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const Prep
     const std::string why = fails_all_runs(s.error_after, rd, opt.significance);
     if (why.empty()) return true;
     CandidateScore& c = rd.candidates[k];
-    c.message = refused + why + (c.message.empty() ? std::string() : "; " + c.message);
+    c.message = then_note(refused + why, c.message);
     return false;
   };
   bool named_alone = choice.named && settled_passes(*choice.winner, "not named: ");
@@ -2157,14 +2164,15 @@ DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const Prep
     if (second.named) {
       named_alone = settled_passes(*second.winner, refused);
       if (named_alone) {
-        s.message = "named as the runner-up: " + std::string(effect_name(rd.candidates[first].effect)) +
-                    ", the lowest score, was not" + (s.message.empty() ? std::string() : "; " + s.message);
+        s.message = then_note("named as the runner-up: " + std::string(effect_name(rd.candidates[first].effect)) +
+                                  ", the lowest score, was not",
+                              s.message);
       }
     } else if (second.winner) {
       CandidateScore& r = rd.candidates[*second.winner];
-      r.message = refused + "not below none, none at its breakpoints or none across the α gap by the "
-                  "significance in both folds (or a delay below one tick)" +
-                  (r.message.empty() ? std::string() : "; " + r.message);
+      r.message = then_note(refused + "not below none, none at its breakpoints or none across the α gap by "
+                                      "the significance in both folds (or a delay below one tick)",
+                            r.message);
     }
   }
   // `none` refitted, offered when nothing is named (below): with the best of `none`'s α-model
