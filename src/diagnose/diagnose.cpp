@@ -1985,8 +1985,8 @@ std::optional<std::size_t> try_pairs(const CandidateFitter& fitter, const Reiden
   // nothing, and one named here can still be dropped after the rounds (drop_redundant). (On
   // gravity + a 4 ms delay, seed 41, pose 5, it was the Coulomb friction kept alone from the pair
   // saturation + Coulomb, 0.0355 over all runs against `none` refitted 0.0248, that opened the
-  // rounds naming gravity and the delay; held to a single's test below since a6191f1, it is
-  // vetoed and the case ends at round 1: docs/diagnose.md item 4.)
+  // rounds naming gravity and the delay; held to a single's test below, it is named on trial:
+  // judge_kept_alone(), docs/diagnose.md item 4.)
   if (std::string why = not_below_before(s.error_after, rd.error_before, opt.significance); !why.empty()) {
     f.message = std::move(why);
     return std::nullopt;
@@ -2363,7 +2363,8 @@ double located_share(const std::vector<DiagnoseRun>& runs, const DisturbanceFind
   return all > 0.0 ? inside / all : 0.0;
 }
 
-/// The RMS of θ − θ_sim over every sample of every run; +inf without samples.
+/// The RMS of θ − θ_sim over every sample of the runs in `series` (residual_series() leaves out
+/// a run whose simulation failed; error_over_runs() is NaN then); +inf without samples.
 double pooled_residual_rms(const std::vector<ResidualSeries>& series) {
   double ss = 0.0, n = 0.0;
   for (const ResidualSeries& r : series) {
@@ -2449,8 +2450,7 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
     ResidualVerdict verdict_now = ResidualVerdict::kStructureRemains;
     CandidateScore none_offer;  // the round's `none` refit offered were nothing named (ok: there is one)
   };
-  std::optional<BeforeTrial> before_trial;
-  bool on_trial_allowed = true;  // at most one round per diagnosis on trial
+  std::optional<BeforeTrial> before_trial;  // (at most one round per diagnosis on trial)
   // A round that named nothing: the model's own, refitted (DiagnoseRound::none_refitted), only
   // when it explains the data to the noise floor and the model as it came (verdict_now) does
   // not. Two refits, the first explained taken: `settled` (coefficient factors fitted by output
@@ -2500,7 +2500,7 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
       const bool pair_fallback = named_so_far + 2 <= opt.max_effects &&
                                  std::isfinite(res.noise_floor.rms) &&
                                  verdict_now == ResidualVerdict::kStructureRemains;
-      const bool may_try = on_trial_allowed && !after_dropping;
+      const bool may_try = !before_trial && !after_dropping;
       CandidateScore none_offer;
       DiagnoseRound rd = diagnose_round(runs_in, prepared, model, reid, cat, opt, &settled,
                                         &failure, pair_fallback, may_try, &none_offer);
@@ -2508,7 +2508,6 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
       if (std::isfinite(rd.on_trial_reference_rms)) {
         before_trial = BeforeTrial{res.rounds.size(), model, res.effects_named, named_so_far, verdict_now,
                                    std::move(none_offer)};
-        on_trial_allowed = false;
       }
       const EffectKind named = rd.named;
       const EffectKind named_second = rd.named_second;
@@ -2601,7 +2600,7 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
     DiagnoseRound& trial = res.rounds[before_trial->round];
     const double reference = trial.on_trial_reference_rms;
     const auto sims = simulate_diagnosed(runs_in, model.effects, model.scales, opt.simulation, opt.threads, model.alpha);
-    const double ended = pooled_residual_rms(residual_series(runs_in, sims));
+    const double ended = error_over_runs(runs_in, sims);  // (NaN when a run's simulation failed: rolled back)
     if (!(ended <= reference)) {
       std::string was = effect_name(trial.named);
       for (PairScore& p : trial.pairs) {
@@ -2625,8 +2624,7 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
       verdict_now = before_trial->verdict_now;
       res.dropped.clear();  // (the backward elimination runs after the rounds: none before the trial)
       end_with_none(trial, before_trial->none_offer);
-      before_trial.reset();
-      drops_and_rounds_again();
+      drops_and_rounds_again();  // (after_dropping rounds only: no second trial)
     }
   }
   // --- a provisional estimate judged again, with the effects the rounds named: named when the
