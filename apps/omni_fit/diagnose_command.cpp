@@ -111,6 +111,11 @@ nlohmann::json result_json(const DiagnoseResult& res) {
   for (const UnexplainedPart& u : res.verdict.unexplained)
     unexplained.push_back({{"where", u.where}, {"size", num(u.size)}, {"ratio", num(u.ratio)}});
   j["unexplained"] = unexplained;
+  // Above the ratio but not judged alone (verdict.hpp VerdictReport::not_judged).
+  nlohmann::json not_judged = nlohmann::json::array();
+  for (const UnexplainedPart& u : res.verdict.not_judged)
+    not_judged.push_back({{"where", u.where}, {"size", num(u.size)}, {"ratio", num(u.ratio)}});
+  j["not_judged"] = not_judged;
   // Candidates the data cannot tell from the named effects (separability.hpp).
   nlohmann::json not_separable = nlohmann::json::array();
   for (const NotSeparable& n : res.not_separable) {

@@ -386,13 +386,17 @@ struct DiagnoseOutcome {
     d["noise_floor"] = num(result.noise_floor.rms);
     d["noise_floor_cycle_to_cycle"] = num(result.noise_floor.cycle_to_cycle);
     d["structure_rms"] = num(v.structure_rms), d["fundamental_median"] = num(v.fundamental_median);
-    py::list parts;
-    for (const UnexplainedPart& u : v.unexplained) {
-      py::dict p;
-      p["where"] = u.where, p["size"] = num(u.size), p["ratio"] = num(u.ratio);
-      parts.append(p);
-    }
-    d["unexplained"] = parts;
+    const auto parts = [](const std::vector<UnexplainedPart>& list) {
+      py::list out;
+      for (const UnexplainedPart& u : list) {
+        py::dict p;
+        p["where"] = u.where, p["size"] = num(u.size), p["ratio"] = num(u.ratio);
+        out.append(p);
+      }
+      return out;
+    };
+    d["unexplained"] = parts(v.unexplained);
+    d["not_judged"] = parts(v.not_judged);  // above the ratio, not judged alone
     d["before"] = verdict_name(result.verdict_before.verdict);  // on the model given
     return d;
   }
@@ -663,7 +667,7 @@ the residual concentrates, the model with the effects folded in, the reports.)")
                              "effect, error_after (RMS over all runs after its round), parameters, took_in")
       .def_property_readonly("verdict", &DiagnoseOutcome::verdict,
                              "the verdict on the final model: verdict ('explained' or "
-                             "'structure_remains'), text, noise_floor, structure_rms, unexplained "
+                             "'structure_remains'), text, noise_floor, structure_rms, unexplained and not_judged "
                              "(dicts of where, size, ratio), before (the verdict on the model given)")
       .def_property_readonly("discovered", &DiagnoseOutcome::discovered,
                              "the discovered term (None: not tried): kept, equation, reading, terms, "

@@ -366,10 +366,15 @@ std::string diagnose_report_markdown(const DiagnoseResult& r, const std::vector<
   if (!std::isfinite(r.noise_floor.rms)) return s.str();  // not judged
   s << "\n## Verdict\n\nNoise floor (the residual's white part, from its second differences): "
     << fmt(r.noise_floor.white) << "; the sine runs' steady state not repeating from cycle to "
-    << "cycle: " << fmt(r.noise_floor.cycle_to_cycle) << ".\n\n**"
-    << (r.verdict.verdict == ResidualVerdict::kExplained ? "Explained to the noise floor"
-                                                         : "Structure remains")
-    << "**: " << r.verdict.text() << "\n";
+    << "cycle: " << fmt(r.noise_floor.cycle_to_cycle) << ".\n\n";
+  {
+    // The bold title, then text() without the same words at its start.
+    const bool explained = r.verdict.verdict == ResidualVerdict::kExplained;
+    const std::string words = explained ? "explained to the noise floor: " : "structure remains ";
+    std::string text = r.verdict.text();
+    if (text.rfind(words, 0) == 0) text.erase(0, words.size());
+    s << (explained ? "**Explained to the noise floor**: " : "**Structure remains** ") << text << "\n";
+  }
   if (r.discovered && r.discovered->kept) s << "\n" << discovered_verdict_text(*r.discovered) << "\n";
   if (!r.not_separable.empty()) {
     s << "\nNot separable on these data (separability.hpp): named and not ruled out either.\n\n";
@@ -378,6 +383,13 @@ std::string diagnose_report_markdown(const DiagnoseResult& r, const std::vector<
   if (!r.verdict.unexplained.empty()) {
     s << "\n| where | RMS | × floor |\n|---|---|---|\n";
     for (const UnexplainedPart& u : r.verdict.unexplained)
+      s << "| " << u.where << " | " << fmt(u.size) << " | " << fmt(u.ratio, "%.1f") << " |\n";
+  }
+  if (!r.verdict.not_judged.empty()) {
+    s << "\nAbove " << fmt(r.verdict.ratio, "%g") << "× the floor but not judged alone (the sine "
+      << "runs' part that does not repeat is judged by its median over them, "
+      << fmt(r.verdict.cycle_to_cycle) << "):\n\n| where | RMS | × floor |\n|---|---|---|\n";
+    for (const UnexplainedPart& u : r.verdict.not_judged)
       s << "| " << u.where << " | " << fmt(u.size) << " | " << fmt(u.ratio, "%.1f") << " |\n";
   }
   return s.str();

@@ -220,6 +220,8 @@ VerdictReport judge_residual(const std::vector<ResidualSeries>& runs, const Nois
   double ss_j = 0.0, n_j = 0.0, ss_t = 0.0, n_t = 0.0, ss_s = 0.0, n_s = 0.0;
   struct Fundamental { double rms; const ResidualSeries* run; };
   std::vector<Fundamental> fundamentals;  // the sine runs' errors at the fundamental
+  std::vector<UnexplainedPart> rests;     // sine runs whose part that does not repeat is large
+  std::vector<double> rest_sizes;         // … and that part of every sine run
   for (const ResidualSeries& s : runs) {
     if (s.t.size() != s.residual.size() || s.t.size() < 20) continue;
     std::size_t first = 0;
@@ -247,6 +249,12 @@ VerdictReport judge_residual(const std::vector<ResidualSeries>& runs, const Nois
                              ", constant " + num(h.mean) + " (and at the fundamental " +
                              num(h.fundamental) + ")";
           add(what, shape);
+        }
+        rest_sizes.push_back(h.rest);
+        if (h.rest > o.ratio * fl) {
+          rests.push_back({run + ": error not repeating from cycle to cycle (a slow transient near a "
+                           "resonance, or a motion not locked to the reference)",
+                           h.rest, h.rest / fl});
         }
       }
     }
@@ -300,9 +308,12 @@ VerdictReport judge_residual(const std::vector<ResidualSeries>& runs, const Nois
       a = b;
     }
   }
-  if (std::isfinite(floor.cycle_to_cycle) && floor.cycle_to_cycle > o.ratio * fl) {
+  rep.cycle_to_cycle = median(rest_sizes);  // of the residual judged, not the floor's
+  if (std::isfinite(rep.cycle_to_cycle) && rep.cycle_to_cycle > o.ratio * fl) {
     add("the sine runs' steady state, not repeating from cycle to cycle (drift, disturbances)",
-        floor.cycle_to_cycle);
+        rep.cycle_to_cycle);
+  } else {
+    rep.not_judged = std::move(rests);  // judged by their median only (file comment)
   }
   // The sine runs' errors at the fundamental together (file comment): one or two runs near a
   // resonance may miss it, most may not.
@@ -326,8 +337,9 @@ VerdictReport judge_residual(const std::vector<ResidualSeries>& runs, const Nois
   rep.judged_rms = n_j > 0 ? std::sqrt(ss_j / n_j) : kNaN;
   rep.structure_rms = n_s > 0 ? std::sqrt(ss_s / n_s) : kNaN;
   rep.transient_rms = n_t > 0 ? std::sqrt(ss_t / n_t) : kNaN;
-  std::stable_sort(rep.unexplained.begin(), rep.unexplained.end(),
-                   [](const UnexplainedPart& a, const UnexplainedPart& b) { return a.ratio > b.ratio; });
+  const auto larger = [](const UnexplainedPart& a, const UnexplainedPart& b) { return a.ratio > b.ratio; };
+  std::stable_sort(rep.unexplained.begin(), rep.unexplained.end(), larger);
+  std::stable_sort(rep.not_judged.begin(), rep.not_judged.end(), larger);
   rep.verdict = rep.unexplained.empty() ? ResidualVerdict::kExplained : ResidualVerdict::kStructureRemains;
   return rep;
 }
@@ -342,8 +354,16 @@ std::string VerdictReport::text() const {
                     std::to_string(fundamental_runs) + " runs above " + num(ratio, "%g") +
                     "× the floor";
     }
+    std::string alone;
+    if (!not_judged.empty()) {
+      alone = "; not judged alone (the sine runs' part that does not repeat is judged by its median " +
+              num(cycle_to_cycle) + "): " + std::to_string(not_judged.size()) +
+              (not_judged.size() == 1 ? " run above " : " runs above ") + num(ratio, "%g") +
+              "× the floor, the largest " + not_judged.front().where + ": RMS " +
+              num(not_judged.front().size) + " (" + num(not_judged.front().ratio, "%.0f") + "× the floor)";
+    }
     return "explained to the noise floor: judged structure RMS " + num(structure_rms) + " = " +
-           num(structure_rms / floor.rms, "%.1f") + "× the floor " + fl + fundamental +
+           num(structure_rms / floor.rms, "%.1f") + "× the floor " + fl + fundamental + alone +
            " (transients after starts and reference jumps, not judged: RMS " + num(transient_rms) + ")";
   }
   std::string s = "structure remains (noise floor " + fl + "): ";

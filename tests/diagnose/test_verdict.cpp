@@ -115,6 +115,45 @@ TEST(Verdict, MostSineRunsMissingTheirFundamentalIsStructureOneIsNot) {
   EXPECT_NE(w.text().find("1 of 4 runs above 3× the floor"), std::string::npos) << w.text();
 }
 
+TEST(Verdict, OneSineRunNotRepeatingIsSaidNotJudgedMostAreStructure) {
+  // Four sine runs, white noise σ = 1e-4. In one, an oscillation at 1.37× the reference
+  // frequency (not a harmonic: a slow transient of a lightly damped mode near the resonance),
+  // amplitude 2e-3 (RMS 1.41e-3 = 14× the floor): its part that does not repeat is above 3× the
+  // floor, the median over the runs is not. Explained, and said: not judged alone.
+  const double freqs[] = {1.5, 2.0, 3.0, 5.0};
+  std::vector<ResidualSeries> runs;
+  for (unsigned i = 0; i < 4; ++i) runs.push_back(run("sine", freqs[i], 1e-4, 40 + i));
+  const NoiseFloor white = estimate_noise_floor(runs);
+  auto add_mode = [](ResidualSeries& s) {
+    for (std::size_t k = 0; k < s.t.size(); ++k) s.residual[k] += 2e-3 * std::sin(kTwoPi * 1.37 * *s.freq_hz * s.t[k]);
+  };
+  std::vector<ResidualSeries> one = runs;
+  add_mode(one[1]);
+  const VerdictReport v = judge_residual(one, estimate_noise_floor(one));
+  EXPECT_EQ(v.verdict, ResidualVerdict::kExplained) << v.text();
+  ASSERT_EQ(v.not_judged.size(), 1u);
+  EXPECT_NE(v.not_judged[0].where.find("sine.csv (2 Hz, steady state): error not repeating"), std::string::npos)
+      << v.not_judged[0].where;
+  EXPECT_NEAR(v.not_judged[0].ratio, 14.2, 1.5);
+  EXPECT_NEAR(v.cycle_to_cycle, 1e-4, 0.1e-4);
+  EXPECT_NE(v.text().find("not judged alone"), std::string::npos) << v.text();
+  EXPECT_NE(v.text().find("1 run above 3× the floor"), std::string::npos) << v.text();
+  // The pooled structure is several times the floor: that run is why.
+  EXPECT_GT(v.structure_rms, 5.0 * v.floor.rms);
+  // In three of the four runs: the median is above 3×, structure remains, and it is judged on
+  // the residual given, not on the one the floor was estimated from (white noise only here).
+  std::vector<ResidualSeries> most = runs;
+  for (unsigned i = 0; i < 3; ++i) add_mode(most[i]);
+  const VerdictReport w = judge_residual(most, white);
+  EXPECT_EQ(w.verdict, ResidualVerdict::kStructureRemains) << w.text();
+  EXPECT_TRUE(w.not_judged.empty());
+  EXPECT_NEAR(w.cycle_to_cycle, std::hypot(2e-3 / std::sqrt(2.0), 1e-4), 0.15e-3);
+  bool found = false;
+  for (const UnexplainedPart& u : w.unexplained)
+    found = found || u.where.find("not repeating from cycle to cycle") != std::string::npos;
+  EXPECT_TRUE(found) << w.text();
+}
+
 TEST(Verdict, TheJudgedStructureLeavesOutTheFundamentalOnly) {
   // A sine run whose residual is a gain error at the fundamental (amplitude 5e-3, not judged), a
   // 2nd harmonic of amplitude 1e-3 and a constant 4e-4 (judged): structure_rms is the RMS of
