@@ -60,6 +60,8 @@ def main():
             j = run_case(a.bin, a.out, kind, KINDS[kind], seed)
             named = [n["effect"] for n in j["named"] if n["effect"] != "discovered"] or ["none"]
             d = j.get("discovered", {})
+            if d.get("kept") and d.get("took_in"):  # a named friction whose place the term took
+                named.append(f"({d['took_in']}: its place taken by the term)")
             kept = bool(d.get("kept"))
             gap = d.get("gap_closed")
             floor = j.get("noise_floor") or 0.0

@@ -418,6 +418,8 @@ struct DiagnoseOutcome {
     d["error_before"] = num(t.error_before), d["error_after"] = num(t.error_after);
     d["gap_closed"] = num(t.gap_closed), d["structure_gap_closed"] = num(t.structure_gap_closed);
     d["carries_remainder"] = t.carries_remainder;
+    // the named effect it took the place of (None: none)
+    d["took_in"] = t.took_in == EffectKind::kNone ? py::object(py::none()) : py::object(py::str(effect_name(t.took_in)));
     return d;
   }
   /// DiagnoseResult::not_separable: the candidates the data cannot tell from the named effects.
@@ -671,7 +673,7 @@ the residual concentrates, the model with the effects folded in, the reports.)")
                              "(dicts of where, size, ratio), before (the verdict on the model given)")
       .def_property_readonly("discovered", &DiagnoseOutcome::discovered,
                              "the discovered term (None: not tried): kept, equation, reading, terms, "
-                             "error_before, error_after, gap_closed, carries_remainder, message")
+                             "error_before, error_after, gap_closed, carries_remainder, took_in, message")
       .def_property_readonly("dropped", &DiagnoseOutcome::dropped,
                              "effects the rounds named that the model did without in the end (backward "
                              "elimination): dicts of effect, score_with, score_without, message")

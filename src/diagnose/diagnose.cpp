@@ -2693,6 +2693,11 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
         model.effects = found->effects;
         model.scales = found->scales;
         model.alpha = found->alpha;
+        if (found->took_in != EffectKind::kNone) {  // its level is 0 in the term's effects
+          const auto gone = [&](std::vector<EffectKind>& v) { v.erase(std::remove(v.begin(), v.end(), found->took_in), v.end()); };
+          gone(model.named);
+          gone(res.effects_named);
+        }
       }
       res.discovered = found;
     }

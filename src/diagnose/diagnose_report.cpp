@@ -187,6 +187,7 @@ std::vector<NamedEffect> DiagnoseResult::named_in_order() const {
       if (std::any_of(rounds.begin() + static_cast<std::ptrdiff_t>(r) + 1, rounds.end(),
                       [&](const DiagnoseRound& later) { return !later.rolled_back && later.took_in == k; }))
         continue;
+      if (discovered && discovered->kept && discovered->took_in == k) continue;  // its place taken
       out.push_back({k, rd.error_after, k == rd.named ? rd.took_in : EffectKind::kNone});
     }
   }

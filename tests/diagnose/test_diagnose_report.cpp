@@ -1,8 +1,10 @@
 #include "alphainv/diagnose/diagnose_report.hpp"
+#include "alphainv/diagnose/discovered_term.hpp"
 
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <memory>
 
 #include <gtest/gtest.h>
 
@@ -206,6 +208,17 @@ TEST(DiagnoseReport, NamedInOrderLeavesOutWhatWasRolledBackDroppedOrTakenIn) {
   ASSERT_EQ(m.size(), 4u);
   EXPECT_EQ(m[1].effect, EffectKind::kCoulombFriction);
   EXPECT_DOUBLE_EQ(m[1].error_after, 0.02);
+  // A kept discovered term that took the Coulomb friction's place: its name goes; not kept, it
+  // stays.
+  auto term = std::make_shared<DiscoveredTermResult>();
+  term->kept = true;
+  term->took_in = EffectKind::kCoulombFriction;
+  r.discovered = term;
+  const std::vector<NamedEffect> t = r.named_in_order();
+  ASSERT_EQ(t.size(), 3u);
+  EXPECT_EQ(t[1].effect, EffectKind::kGravity);
+  term->kept = false;
+  EXPECT_EQ(r.named_in_order().size(), 4u);
 }
 
 TEST(DiagnoseReport, ReportsOfARealDiagnosis) {

@@ -1,5 +1,6 @@
 #include "alphainv/diagnose/discovered_term.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <string>
@@ -200,6 +201,15 @@ TEST(DiscoverTermEndToEnd, FindsALaggedFrictionWithItsLagTimeAndLevel) {
   EXPECT_GT(d.structure_gap_closed, 0.5) << d.full_report();
   EXPECT_NE(d.reading.find("memory"), std::string::npos) << d.reading;
   EXPECT_NE(d.equation.find("tanh(f/eps_f)"), std::string::npos) << d.equation;
+  // The rounds named Coulomb friction for it (its nearest memoryless form): the contender with
+  // that level taken out was tried. Here it does not cut the RMS over all runs of the one that
+  // keeps it by significance/2 (0.001136 against 0.001109), so the named form stays, with its
+  // name; where it does (the invented hysteresis of docs/diagnose.md) both go.
+  EXPECT_TRUE(std::isfinite(d.took_in_error_after)) << d.full_report();
+  const bool took_in = d.took_in == EffectKind::kCoulombFriction;
+  EXPECT_EQ(took_in, d.took_in_error_after <= 0.95 * d.memory_error_after) << d.full_report();
+  EXPECT_EQ(took_in, r.effects.coulomb_v == 0.0);
+  EXPECT_EQ(took_in, std::count(r.effects_named.begin(), r.effects_named.end(), EffectKind::kCoulombFriction) == 0);
 }
 
 TEST(DiscoverTerm, EffectFreeDataIsNotTried) {

@@ -377,7 +377,8 @@ struct DiagnoseResult {
   /// The named effects in the order they were named, each with the error after its round: the
   /// external disturbance when named (located before the rounds), then every round's (both of a
   /// pair) but those of rounds rolled back, effects dropped after the rounds and effects a later
-  /// round's generalisation took in. The same effects as effects_named (not the discovered term).
+  /// round's generalisation or the kept discovered term took in (DiscoveredTermResult::took_in).
+  /// The same effects as effects_named (not the discovered term).
   std::vector<NamedEffect> named_in_order() const;
 };
 
