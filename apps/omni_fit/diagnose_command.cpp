@@ -110,15 +110,15 @@ nlohmann::json result_json(const DiagnoseResult& res) {
   // median error at the fundamental (null with fewer than three sine runs).
   j["structure_rms"] = num(res.verdict.structure_rms);
   j["fundamental_median"] = num(res.verdict.fundamental_median);
-  nlohmann::json unexplained = nlohmann::json::array();
-  for (const UnexplainedPart& u : res.verdict.unexplained)
-    unexplained.push_back({{"where", u.where}, {"size", num(u.size)}, {"ratio", num(u.ratio)}});
-  j["unexplained"] = unexplained;
+  const auto parts = [](const std::vector<UnexplainedPart>& list) {
+    nlohmann::json out = nlohmann::json::array();
+    for (const UnexplainedPart& u : list)
+      out.push_back({{"where", u.where}, {"size", num(u.size)}, {"ratio", num(u.ratio)}});
+    return out;
+  };
+  j["unexplained"] = parts(res.verdict.unexplained);
   // Above the ratio but not judged alone (verdict.hpp VerdictReport::not_judged).
-  nlohmann::json not_judged = nlohmann::json::array();
-  for (const UnexplainedPart& u : res.verdict.not_judged)
-    not_judged.push_back({{"where", u.where}, {"size", num(u.size)}, {"ratio", num(u.ratio)}});
-  j["not_judged"] = not_judged;
+  j["not_judged"] = parts(res.verdict.not_judged);
   // Candidates the data cannot tell from the named effects (separability.hpp).
   nlohmann::json not_separable = nlohmann::json::array();
   for (const NotSeparable& n : res.not_separable) {

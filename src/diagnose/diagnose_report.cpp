@@ -3,6 +3,7 @@
 #include "diagnose_stages.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -369,12 +370,10 @@ std::string diagnose_report_markdown(const DiagnoseResult& r, const std::vector<
     << fmt(r.noise_floor.white) << "; the sine runs' steady state not repeating from cycle to "
     << "cycle: " << fmt(r.noise_floor.cycle_to_cycle) << ".\n\n";
   {
-    // The bold title, then text() without the same words at its start.
-    const bool explained = r.verdict.verdict == ResidualVerdict::kExplained;
-    const std::string words = explained ? "explained to the noise floor: " : "structure remains ";
-    std::string text = r.verdict.text();
-    if (text.rfind(words, 0) == 0) text.erase(0, words.size());
-    s << (explained ? "**Explained to the noise floor**: " : "**Structure remains** ") << text << "\n";
+    const std::string text = r.verdict.text();  // (it starts with the heading: in bold, capitalised)
+    std::string heading = r.verdict.heading();
+    heading[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(heading[0])));
+    s << "**" << heading << "**" << text.substr(heading.size()) << "\n";
   }
   if (r.discovered && r.discovered->kept) s << "\n" << discovered_verdict_text(*r.discovered) << "\n";
   if (!r.not_separable.empty()) {

@@ -556,15 +556,20 @@ DiscoveredTermResult discover_term(const std::vector<DiagnoseRun>& fit_runs,
     return done();
   }
   sc.theta_dot_rms = std::sqrt(ss / static_cast<double>(tr0.theta.size()));
-  Effects e = base.effects;
-  for (std::size_t j = 0; j < kAllTerms; ++j) e.*term_member(j) = 0.0;
-  detail::discovered_scales(sc, e);
+  // The effects a term is added to: `named` (the model's, or with a named friction taken out)
+  // with no term and the term's scales from the data.
+  auto term_base = [&sc](Effects named) {
+    for (std::size_t j = 0; j < kAllTerms; ++j) named.*term_member(j) = 0.0;
+    detail::discovered_scales(sc, named);
+    return named;
+  };
+  const Effects e = term_base(base.effects);
   const double bound = 2.0 * std::max(sc.v_max, 1e-12);
   // The memory terms' scales: nullopt, the library alone.
   struct MemoryScales {
     double lag_s = 0.0, dahl_rad = 0.0;
   };
-  // (`on`: the effects the term is added to: `e`, or `e` with a named friction taken out)
+  // (`on`: the effects the term is added to, term_base(): `e`, or with a named friction taken out)
   auto with_scales = [&](const std::optional<MemoryScales>& mem, const Effects& on) {
     Effects t = on;
     if (mem) {
@@ -618,9 +623,10 @@ DiscoveredTermResult discover_term(const std::vector<DiagnoseRun>& fit_runs,
   // second contender, whatever the library's own choice scored. The equation error's n̂ carries
   // θ̈'s noise, under which a memory term and its memoryless neighbours (a sign, w·|w|) score
   // within a hair of each other; output error over all runs decides between the contenders.
+  const bool memory_on = opt.memory && opt.simulation.loop_period_s > 0.0;
   auto memory_grid = [&](const diagnose_detail::TorqueResidual& tr, SparseRegressionResult& chosen) {
     std::optional<MemoryScales> found;
-    if (!(opt.memory && opt.simulation.loop_period_s > 0.0)) return found;
+    if (!memory_on) return found;
     for (double lag_s : kLagGridS) {
       for (double fraction : kDahlGridFraction) {
         const MemoryScales m{lag_s, fraction * e.discovered_position_scale_rad};
@@ -740,9 +746,10 @@ DiscoveredTermResult discover_term(const std::vector<DiagnoseRun>& fit_runs,
   // input and the regression repeated on what that model leaves (at unit factors), twice; the
   // better over all runs.
   // `named`: the model's effects without a term (base.effects, or with a named friction taken
-  // out), `on`: the same with the term's scales.
+  // out); `reidentify`: the second path, with the α-model identified again.
   auto fit_contender = [&](const SparseRegressionResult& first, const std::optional<MemoryScales>& mem,
-                           const Effects& named, const Effects& on, bool reidentify) {
+                           const Effects& named, bool reidentify) {
+    const Effects on = term_base(named);
     Fitted best = fit_oe(first, mem, base.alpha, base.scales, on);
     if (reidentify && base.reidentify) {
       ModelScales unit = base.scales;
@@ -766,9 +773,9 @@ DiscoveredTermResult discover_term(const std::vector<DiagnoseRun>& fit_runs,
     return best;
   };
   Fitted best;
-  if (!res.regression.chosen.terms.empty()) best = fit_contender(res.regression, std::nullopt, base.effects, e, true);
+  if (!res.regression.chosen.terms.empty()) best = fit_contender(res.regression, std::nullopt, base.effects, true);
   if (memory) {
-    Fitted with_memory = fit_contender(memory_regression, memory, base.effects, e, true);
+    Fitted with_memory = fit_contender(memory_regression, memory, base.effects, true);
     res.memory_error_after = with_memory.error_after;
     if (!best.regression.ok || with_memory.error_after < best.error_after) best = std::move(with_memory);
   }
@@ -776,23 +783,22 @@ DiscoveredTermResult discover_term(const std::vector<DiagnoseRun>& fit_runs,
   // the invented frictional lag, docs/diagnose.md), and a term regressed on what that leaves can
   // only be added beside it. A third contender: the named Coulomb level taken out, the memory
   // grid on the torque the model then leaves (σ, the library's sign, can give some of it back),
-  // fitted as the others. It takes the named friction's place only when it cuts the RMS over all
-  // runs of the best contender that keeps it by significance/2 (the named form wins a tie).
-  // (Only Coulomb friction so far: the other friction forms' levels are next.)
-  if (base.effects.coulomb_v != 0.0 && opt.memory && opt.simulation.loop_period_s > 0.0 &&
-      (best.regression.ok || memory)) {
-    Effects named_open = base.effects, on_open = e;
-    named_open.coulomb_v = 0.0, on_open.coulomb_v = 0.0;
+  // fitted by output error from the base's α-model. It takes the named friction's place only
+  // when it cuts the RMS over all runs of the best contender, which keeps it, by significance/2
+  // (the named form wins a tie). (Only Coulomb friction so far: the other friction forms' levels
+  // are next.) `best` is set here: the library's or the memory terms' contender ran (above).
+  if (base.effects.coulomb_v != 0.0 && memory_on) {
+    Effects named_open = base.effects;
+    named_open.coulomb_v = 0.0;
     SparseRegressionResult open_regression;
     const std::optional<MemoryScales> open_memory =
         memory_grid(residual_of(named_open, base.scales, base.alpha), open_regression);
     if (open_memory) {
       // (from the base's α-model only: with it identified again the case of
       // DiscoverTermEndToEnd took 178 s instead of 70)
-      Fitted open = fit_contender(open_regression, open_memory, named_open, on_open, false);
+      Fitted open = fit_contender(open_regression, open_memory, named_open, false);
       res.took_in_error_after = open.error_after;
-      const double keeping = best.regression.ok ? best.error_after : kInf;
-      if (std::isfinite(open.error_after) && open.error_after <= (1.0 - 0.5 * opt.significance) * keeping) {
+      if (std::isfinite(open.error_after) && open.error_after <= (1.0 - 0.5 * opt.significance) * best.error_after) {
         best = std::move(open);
         res.took_in = EffectKind::kCoulombFriction;
       }

@@ -344,6 +344,10 @@ VerdictReport judge_residual(const std::vector<ResidualSeries>& runs, const Nois
   return rep;
 }
 
+std::string VerdictReport::heading() const {
+  return verdict == ResidualVerdict::kExplained ? "explained to the noise floor" : "structure remains";
+}
+
 std::string VerdictReport::text() const {
   const std::string fl = num(floor.rms);
   if (verdict == ResidualVerdict::kExplained) {
@@ -362,11 +366,11 @@ std::string VerdictReport::text() const {
               "× the floor, the largest " + not_judged.front().where + ": RMS " +
               num(not_judged.front().size) + " (" + num(not_judged.front().ratio, "%.0f") + "× the floor)";
     }
-    return "explained to the noise floor: judged structure RMS " + num(structure_rms) + " = " +
+    return heading() + ": judged structure RMS " + num(structure_rms) + " = " +
            num(structure_rms / floor.rms, "%.1f") + "× the floor " + fl + fundamental + alone +
            " (transients after starts and reference jumps, not judged: RMS " + num(transient_rms) + ")";
   }
-  std::string s = "structure remains (noise floor " + fl + "): ";
+  std::string s = heading() + " (noise floor " + fl + "): ";
   for (std::size_t k = 0; k < unexplained.size() && k < 4; ++k) {
     const UnexplainedPart& u = unexplained[k];
     s += (k ? "; " : "") + u.where + ": RMS " + num(u.size) + " (" + num(u.ratio, "%.0f") + "× the floor)";

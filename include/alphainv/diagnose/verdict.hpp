@@ -137,6 +137,8 @@ struct VerdictReport {
   /// 6.6e-05 (…)" or
   /// "structure remains: run s.csv (2 Hz) repeating error 0.0026 (40× the floor 6.6e-05); …".
   std::string text() const;
+  /// The words text() starts with: "explained to the noise floor" or "structure remains".
+  std::string heading() const;
 };
 
 /// The noise floor of `runs` (file comment). Runs with fewer than 10 samples are skipped.
