@@ -94,6 +94,9 @@ nlohmann::json result_json(const DiagnoseResult& res) {
                             {"memory_error_after", num(d.memory_error_after)},
                             {"took_in", d.took_in == EffectKind::kNone ? nlohmann::json(nullptr)
                                                                        : nlohmann::json(effect_name(d.took_in))},
+                            {"took_in_tried", d.took_in_tried == EffectKind::kNone
+                                                  ? nlohmann::json(nullptr)
+                                                  : nlohmann::json(effect_name(d.took_in_tried))},
                             {"took_in_error_after", num(d.took_in_error_after)},
                             {"carries_remainder", d.carries_remainder}};
     if (d.kept) named.push_back(entry);

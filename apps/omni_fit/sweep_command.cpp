@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "alphainv/diagnose/diagnose.hpp"
+#include "alphainv/diagnose/discovered_term.hpp"
 #include "alphainv/error.hpp"
 #include "alphainv/simulate/experiment_plan.hpp"
 #include "apps/common/exit_code.hpp"
@@ -246,8 +247,22 @@ int run_sweep(const SweepCommandOptions& o) {
     }
     nlohmann::json unexplained = nlohmann::json::array();
     for (const UnexplainedPart& u : r.verdict.unexplained) unexplained.push_back({{"where", u.where}, {"ratio", u.ratio}});
+    nlohmann::json not_judged = nlohmann::json::array();  // (verdict.hpp VerdictReport::not_judged)
+    for (const UnexplainedPart& u : r.verdict.not_judged) not_judged.push_back({{"where", u.where}, {"ratio", u.ratio}});
     nlohmann::json not_separable = nlohmann::json::array();  // (separability.hpp)
     for (const NotSeparable& n : r.not_separable) not_separable.push_back(effect_name(n.effect));
+    nlohmann::json effects_named = nlohmann::json::array();  // (`named` is the first of them)
+    for (EffectKind k : r.effects_named) effects_named.push_back(effect_name(k));
+    // The discovered term (null: not tried): kept or not, its reading, and the named effect whose
+    // place it took (discovered_term.hpp), which is then not among effects_named.
+    nlohmann::json discovered = nullptr;
+    if (r.discovered) {
+      const DiscoveredTermResult& d = *r.discovered;
+      discovered = {{"ok", d.ok}, {"kept", d.kept}, {"reading", d.reading},
+                    {"error_after", d.error_after},
+                    {"took_in", d.took_in == EffectKind::kNone ? nlohmann::json(nullptr)
+                                                               : nlohmann::json(effect_name(d.took_in))}};
+    }
     jcases.push_back({{"effect", effect_name(c.effect)}, {"magnitude", magnitude},
                       {"hidden", effects_text(hidden)}, {"generate", gen_cmd.str()},
                       {"noise_std_rad", c.noise_std_rad}, {"seed", c.seed},
@@ -258,7 +273,9 @@ int run_sweep(const SweepCommandOptions& o) {
                       {"structure_rms", r.verdict.structure_rms},
                       {"fundamental_median", r.verdict.fundamental_median},
                       {"fundamental_runs_above", r.verdict.fundamental_runs_above},
-                      {"unexplained", unexplained}, {"not_separable", not_separable}});
+                      {"unexplained", unexplained}, {"not_judged", not_judged},
+                      {"not_separable", not_separable}, {"effects_named", effects_named},
+                      {"discovered", discovered}});
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   // The matrix.

@@ -420,6 +420,10 @@ struct DiagnoseOutcome {
     d["carries_remainder"] = t.carries_remainder;
     // the named effect it took the place of (None: none)
     d["took_in"] = t.took_in == EffectKind::kNone ? py::object(py::none()) : py::object(py::str(effect_name(t.took_in)));
+    // the named friction whose place was tried (the best such contender), and its RMS (None: none tried)
+    d["took_in_tried"] = t.took_in_tried == EffectKind::kNone ? py::object(py::none())
+                                                             : py::object(py::str(effect_name(t.took_in_tried)));
+    d["took_in_error_after"] = num(t.took_in_error_after);
     return d;
   }
   /// DiagnoseResult::not_separable: the candidates the data cannot tell from the named effects.

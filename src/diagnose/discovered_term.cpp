@@ -780,27 +780,36 @@ DiscoveredTermResult discover_term(const std::vector<DiagnoseRun>& fit_runs,
     if (!best.regression.ok || with_memory.error_after < best.error_after) best = std::move(with_memory);
   }
   // 4. A friction with memory is first named by its nearest memoryless form (Coulomb friction:
-  // the invented frictional lag, docs/diagnose.md), and a term regressed on what that leaves can
-  // only be added beside it. A third contender: the named Coulomb level taken out, the memory
-  // grid on the torque the model then leaves (σ, the library's sign, can give some of it back),
-  // fitted by output error from the base's α-model. It takes the named friction's place only
-  // when it cuts the RMS over all runs of the best contender, which keeps it, by significance/2
-  // (the named form wins a tie). (Only Coulomb friction so far: the other friction forms' levels
-  // are next.) `best` is set here: the library's or the memory terms' contender ran (above).
-  if (base.effects.coulomb_v != 0.0 && memory_on) {
-    Effects named_open = base.effects;
-    named_open.coulomb_v = 0.0;
-    SparseRegressionResult open_regression;
-    const std::optional<MemoryScales> open_memory =
-        memory_grid(residual_of(named_open, base.scales, base.alpha), open_regression);
-    if (open_memory) {
+  // the invented frictional lag, docs/diagnose.md; a Stribeck, asymmetric or position-dependent
+  // friction when its hump, its sides or its slope fit better), and a term regressed on what that
+  // leaves can only be added beside it. For each named friction (Coulomb friction and the forms
+  // that generalise it), a contender: that friction taken out, the memory grid on the torque the
+  // model then leaves (σ, the library's sign, can give some of it back), fitted by output error
+  // from the base's α-model. It takes the named friction's place only when it cuts the RMS over
+  // all runs of the best contender so far, which keeps it, by significance/2 (the named form wins
+  // a tie). `best` is set here: the library's or the memory terms' contender ran (above).
+  if (memory_on) {
+    for (EffectKind k : kAllEffectKinds) {
+      const EffectSpec& spec = effect_spec(k);
+      if (k != EffectKind::kCoulombFriction && !spec.generalises(EffectKind::kCoulombFriction)) continue;
+      if (!spec.active(base.effects)) continue;
+      const Effects named_open = diagnose_detail::without_effect(base.effects, k);
+      SparseRegressionResult open_regression;
+      const std::optional<MemoryScales> open_memory =
+          memory_grid(residual_of(named_open, base.scales, base.alpha), open_regression);
+      if (!open_memory) continue;
       // (from the base's α-model only: with it identified again the case of
       // DiscoverTermEndToEnd took 178 s instead of 70)
       Fitted open = fit_contender(open_regression, open_memory, named_open, false);
-      res.took_in_error_after = open.error_after;
+      // (the tried one with the lowest RMS is reported; NaN: its fit failed)
+      if (res.took_in_tried == EffectKind::kNone ||
+          (std::isfinite(open.error_after) && !(res.took_in_error_after <= open.error_after))) {
+        res.took_in_tried = k;
+        res.took_in_error_after = open.error_after;
+      }
       if (std::isfinite(open.error_after) && open.error_after <= (1.0 - 0.5 * opt.significance) * best.error_after) {
         best = std::move(open);
-        res.took_in = EffectKind::kCoulombFriction;
+        res.took_in = k;
       }
     }
   }
@@ -915,7 +924,8 @@ std::string DiscoveredTermResult::full_report() const {
   if (std::isfinite(structure_gap_closed)) o << format(" (gap closed %.0f %%)", 100.0 * structure_gap_closed);
   if (std::isfinite(memory_error_after)) o << format("; the memory terms' contender: RMS %.4g", memory_error_after);
   if (std::isfinite(took_in_error_after))
-    o << format("; the contender with the named Coulomb friction taken out: RMS %.4g", took_in_error_after);
+    o << format("; the contender with the named %s taken out: RMS %.4g", effect_name(took_in_tried),
+                took_in_error_after);
   o << "\n";
   if (kept) o << "  " << discovered_verdict_text(*this) << "\n";
   if (!message.empty()) o << "  note: " << message << "\n";

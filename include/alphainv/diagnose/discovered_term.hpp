@@ -160,12 +160,14 @@ struct DiscoveredTermResult {
   /// The memory terms' contender's RMS over all runs (NaN: none was a contender: no scale of
   /// the grid had a memory term in its chosen support, or not the digital loop).
   double memory_error_after = std::numeric_limits<double>::quiet_NaN();
-  /// The named friction the term took the place of (kCoulombFriction: its level is 0 in
-  /// `effects`, diagnose() drops its name), or kNone. A friction with memory is first named by
-  /// its nearest memoryless form; with the named Coulomb level taken out, the memory terms are
-  /// tried again, and that contender wins when it cuts the best one's RMS over all runs by
-  /// significance/2. took_in_error_after: its RMS over all runs (NaN: not tried).
+  /// The named friction the term took the place of (Coulomb friction or a form that generalises
+  /// it: its levels are 0 in `effects`, diagnose() drops its name), or kNone. A friction with
+  /// memory is first named by its nearest memoryless form; with each named friction taken out in
+  /// turn, the memory terms are tried again, and such a contender wins when it cuts the best
+  /// one's RMS over all runs by significance/2. took_in_tried: the named friction of the tried
+  /// contender with the lowest RMS over all runs, took_in_error_after (kNone, NaN: none tried).
   EffectKind took_in = EffectKind::kNone;
+  EffectKind took_in_tried = EffectKind::kNone;
   double took_in_error_after = std::numeric_limits<double>::quiet_NaN();
   /// The noise floor given, and the part of the gap to it the term closes,
   /// (error_before − error_after)/(error_before − floor) (NaN without a floor below before).
