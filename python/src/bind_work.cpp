@@ -677,7 +677,8 @@ the residual concentrates, the model with the effects folded in, the reports.)")
                              "(dicts of where, size, ratio), before (the verdict on the model given)")
       .def_property_readonly("discovered", &DiagnoseOutcome::discovered,
                              "the discovered term (None: not tried): kept, equation, reading, terms, "
-                             "error_before, error_after, gap_closed, carries_remainder, took_in, message")
+                             "error_before, error_after, gap_closed, carries_remainder, took_in (the named friction "
+                             "whose place it took, or None), took_in_tried, took_in_error_after, message")
       .def_property_readonly("dropped", &DiagnoseOutcome::dropped,
                              "effects the rounds named that the model did without in the end (backward "
                              "elimination): dicts of effect, score_with, score_without, message")
