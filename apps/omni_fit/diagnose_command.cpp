@@ -32,6 +32,10 @@ using namespace alphainv;
 namespace fs = std::filesystem;
 
 nlohmann::json num(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); }
+/// An effect's name, null for kNone.
+nlohmann::json name_or_null(EffectKind k) {
+  return k == EffectKind::kNone ? nlohmann::json(nullptr) : nlohmann::json(effect_name(k));
+}
 
 nlohmann::json parameters_json(const Effects& e, EffectKind kind) {
   nlohmann::json p = nlohmann::json::object();
@@ -92,11 +96,8 @@ nlohmann::json result_json(const DiagnoseResult& res) {
                             {"structure_after", num(d.structure_after)},
                             {"structure_gap_closed", num(d.structure_gap_closed)},
                             {"memory_error_after", num(d.memory_error_after)},
-                            {"took_in", d.took_in == EffectKind::kNone ? nlohmann::json(nullptr)
-                                                                       : nlohmann::json(effect_name(d.took_in))},
-                            {"took_in_tried", d.took_in_tried == EffectKind::kNone
-                                                  ? nlohmann::json(nullptr)
-                                                  : nlohmann::json(effect_name(d.took_in_tried))},
+                            {"took_in", name_or_null(d.took_in)},
+                            {"took_in_tried", name_or_null(d.took_in_tried)},
                             {"took_in_error_after", num(d.took_in_error_after)},
                             {"carries_remainder", d.carries_remainder}};
     if (d.kept) named.push_back(entry);

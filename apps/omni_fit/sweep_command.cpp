@@ -245,10 +245,11 @@ int run_sweep(const SweepCommandOptions& o) {
         gen_cmd << " --effect " << effect_spec_text(hidden, k);
       }
     }
-    nlohmann::json unexplained = nlohmann::json::array();
-    for (const UnexplainedPart& u : r.verdict.unexplained) unexplained.push_back({{"where", u.where}, {"ratio", u.ratio}});
-    nlohmann::json not_judged = nlohmann::json::array();  // (verdict.hpp VerdictReport::not_judged)
-    for (const UnexplainedPart& u : r.verdict.not_judged) not_judged.push_back({{"where", u.where}, {"ratio", u.ratio}});
+    const auto parts = [](const std::vector<UnexplainedPart>& list) {
+      nlohmann::json out = nlohmann::json::array();
+      for (const UnexplainedPart& u : list) out.push_back({{"where", u.where}, {"ratio", u.ratio}});
+      return out;
+    };
     nlohmann::json not_separable = nlohmann::json::array();  // (separability.hpp)
     for (const NotSeparable& n : r.not_separable) not_separable.push_back(effect_name(n.effect));
     nlohmann::json effects_named = nlohmann::json::array();  // (`named` is the first of them)
@@ -273,7 +274,8 @@ int run_sweep(const SweepCommandOptions& o) {
                       {"structure_rms", r.verdict.structure_rms},
                       {"fundamental_median", r.verdict.fundamental_median},
                       {"fundamental_runs_above", r.verdict.fundamental_runs_above},
-                      {"unexplained", unexplained}, {"not_judged", not_judged},
+                      {"unexplained", parts(r.verdict.unexplained)},
+                      {"not_judged", parts(r.verdict.not_judged)},  // (verdict.hpp VerdictReport::not_judged)
                       {"not_separable", not_separable}, {"effects_named", effects_named},
                       {"discovered", discovered}});
   }

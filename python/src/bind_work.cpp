@@ -30,6 +30,10 @@ namespace alphainv::python {
 namespace {
 
 py::object num(double x) { return std::isfinite(x) ? py::object(py::float_(x)) : py::object(py::none()); }
+/// An effect's name, None for kNone.
+py::object name_or_none(EffectKind k) {
+  return k == EffectKind::kNone ? py::object(py::none()) : py::object(py::str(effect_name(k)));
+}
 
 /// A model argument: a Model, anything with a `.model` (a fit or a diagnosis), or a path.
 ModelFile model_argument(py::handle obj) {
@@ -419,10 +423,9 @@ struct DiagnoseOutcome {
     d["gap_closed"] = num(t.gap_closed), d["structure_gap_closed"] = num(t.structure_gap_closed);
     d["carries_remainder"] = t.carries_remainder;
     // the named effect it took the place of (None: none)
-    d["took_in"] = t.took_in == EffectKind::kNone ? py::object(py::none()) : py::object(py::str(effect_name(t.took_in)));
+    d["took_in"] = name_or_none(t.took_in);
     // the named friction whose place was tried (the best such contender), and its RMS (None: none tried)
-    d["took_in_tried"] = t.took_in_tried == EffectKind::kNone ? py::object(py::none())
-                                                             : py::object(py::str(effect_name(t.took_in_tried)));
+    d["took_in_tried"] = name_or_none(t.took_in_tried);
     d["took_in_error_after"] = num(t.took_in_error_after);
     return d;
   }
