@@ -156,6 +156,9 @@ double Effects::*friction_smoothing(EffectKind kind);
 inline constexpr double kSharperFrictionSmoothing = 0.1;
 /// … and that one kept when its training RMS is at least this share lower.
 inline constexpr double kSharperSmoothingGain = 0.02;
+/// A candidate's second α-model (CandidateFitter::fit()'s `second_alpha`) is taken when its
+/// training RMS is this share lower than with the first.
+inline constexpr double kSecondAlphaGain = 0.02;
 /// The start of a candidate's note when it was (CandidateScore::message).
 inline constexpr const char* kSharperSmoothingNote = "friction smoothing ε taken ";
 
@@ -251,6 +254,10 @@ struct CandidateSearch {
   ModelScales start_scales;
   std::optional<AlphaModel> alpha;
   double found_rms = std::numeric_limits<double>::quiet_NaN();  ///< [position unit]
+  /// Searched: the α-model re-identified at `effects` with its breakpoints refined locally
+  /// (Reidentifier::variants(…, refined)), when the refinement moved them; CandidateFitter::fit()
+  /// tries it as the candidate's second α-model.
+  std::optional<AlphaModel> refined_alpha;
 };
 
 /// Search: the new effect `kind`'s start (the effect table's equation-error start from the torque
@@ -311,10 +318,16 @@ class CandidateFitter {
   /// set_none_training_rms()) or cannot be cross-validated; the cross-validated RMS when `cv`;
   /// else its training RMS, and its blocks and values go to *later for cross_validate(). Its
   /// error_after is the RMS over all runs given.
+  /// `second_alpha`: a second α-model (the breakpoints refined locally, CandidateSearch::
+  /// refined_alpha): a candidate that is not hopeless is fitted again from the same start with
+  /// it, and it is taken when its training RMS is kSecondAlphaGain lower (the factors can make a
+  /// breakpoint set that predicts the windows worse at unit factors the better one; the winner
+  /// must still beat `none` refitted at its breakpoints, passes_guards()).
   CandidateScore fit(EffectKind kind, const Effects& e, const ModelScales& start_scales,
                      const std::optional<AlphaModel>& alpha, bool searched, bool cv,
                      PendingCrossValidation* later,
-                     const std::vector<Effects>& other_starts = {}) const;
+                     const std::vector<Effects>& other_starts = {},
+                     const std::optional<AlphaModel>& second_alpha = std::nullopt) const;
 
   /// fit() of several new effects at once (the pair fallback): `kinds` all fitted with the
   /// named effects and the coefficient factors, from `e`; the score's `effect` is kinds[0]. With
@@ -322,7 +335,8 @@ class CandidateFitter {
   CandidateScore fit_joint(const std::vector<EffectKind>& kinds, const Effects& e,
                            const ModelScales& start_scales, const std::optional<AlphaModel>& alpha,
                            bool searched, bool cv, PendingCrossValidation* later,
-                           const std::vector<Effects>& other_starts = {}) const;
+                           const std::vector<Effects>& other_starts = {},
+                           const std::optional<AlphaModel>& second_alpha = std::nullopt) const;
 
   /// Cross-validate: `cand` (fitted on all fit runs: `values` of `blocks`) fitted on each fold
   /// from there and scored on the other; score is the RMS over both held-out folds.
@@ -358,6 +372,7 @@ struct DeferredFit {
   Effects effects;
   std::optional<AlphaModel> alpha;
   double found_rms;
+  std::optional<AlphaModel> refined_alpha;  ///< CandidateSearch::refined_alpha
 };
 
 /// Fit of the searched candidates `deferred`: each is fitted by output error unless its search RMS

@@ -455,8 +455,7 @@ namespace {
 SimulationResult simulate_with(const DiagnoseRun& run, const Effects& e, const ModelScales& sc,
                                const std::optional<AlphaModel>& alpha, const SimulationOptions& so) {
   const RunData& d = *run.data;
-  InitialState x0 = initial_state_of(d);
-  x0.command_history = run.command_history;
+  const InitialState x0 = initial_state_of(d, run.start, run.command_history);
   return simulate_recorded_run(diagnosed_model(run.model, e, sc, alpha), run.controller, d, x0, so);
 }
 
@@ -674,7 +673,8 @@ DiscoveredTermResult discover_term(const std::vector<DiagnoseRun>& fit_runs,
     const Effects start = term_of(reg, mem, on);
     const Support s = reg.chosen.terms;
     OutputErrorProblem pr;
-    for (const DiagnoseRun& r : oe_runs) pr.runs.push_back({r.data, r.controller, 1.0, r.command_history});
+    for (const DiagnoseRun& r : oe_runs)
+      pr.runs.push_back({r.data, r.controller, 1.0, r.command_history, r.start});
     const std::size_t nc = start_scales.c.size(), nb = start_scales.beta.size();
     for (std::size_t k = 0; k < nc; ++k)
       pr.parameters.push_back({"c_scale_" + std::to_string(k), start_scales.c[k], 0.2, 5.0});

@@ -213,8 +213,7 @@ DisturbanceFinding locate_external_disturbance(const std::vector<DiagnoseRun>& r
   common::parallel_for(runs.size(), opt.threads, [&](std::size_t i) {
     const DiagnoseRun& run = runs[i];
     const RunData& d = *run.data;
-    InitialState x0 = initial_state_of(d);
-    x0.command_history = run.command_history;
+    const InitialState x0 = initial_state_of(d, run.start, run.command_history);
     const SimulationResult s = simulate_recorded_run(
         diagnosed_model(run.model, model.effects, model.scales, model.alpha), run.controller, d, x0,
         opt.simulation);

@@ -299,8 +299,7 @@ SimulationResult simulate_output_error_run(const OutputErrorProblem& problem, co
   const OutputErrorRun& run = problem.runs[i];
   const RunData& d = *run.data;
   const JointModelAtPose model = problem.model(p, i);
-  InitialState x0 = initial_state_of(d);
-  x0.command_history = run.command_history;
+  const InitialState x0 = initial_state_of(d, run.start, run.command_history);
   return simulate_recorded_run(model, run.controller, d, x0, problem.simulation);
 }
 

@@ -27,7 +27,7 @@ constexpr double kIdentifiableCorrelation = 0.95;
 OutputErrorProblem make_problem(const std::vector<TimeDomainRun>& runs,
                                 const TimeDomainFitOptions& options) {
   OutputErrorProblem pr;
-  for (const auto& r : runs) pr.runs.push_back({r.data, r.controller, 1.0, {}});
+  for (const auto& r : runs) pr.runs.push_back({r.data, r.controller, 1.0, {}, {}});
   pr.simulation = options.simulation;
   pr.max_residuals_per_run = options.max_residuals_per_run;
   return pr;

@@ -52,7 +52,7 @@ TEST(OutputError, RecoversLinearModelCoulombAndOffsetFromTheVirtualPlant) {
   OutputErrorProblem pr;
   Controller ctl;
   ctl.kp = 2.0;
-  for (const auto& r : runs) pr.runs.push_back({&r, ctl, 1.0, {}});
+  for (const auto& r : runs) pr.runs.push_back({&r, ctl, 1.0, {}, {}});
   pr.parameters = {{"c", 5.0, 0.1, 100.0},
                    {"beta_tilde", 150.0, 1.0, 1e4},
                    {"coulomb_v", 0.0, 0.0, 1.0},
@@ -118,13 +118,13 @@ TEST(OutputError, BadProblemsGiveAMessage) {
   RunData d;
   d.t = {0, 1};
   d.r = d.theta = d.v = {0, 0};
-  pr.runs.push_back({&d, Controller{}, 1.0, {}});
+  pr.runs.push_back({&d, Controller{}, 1.0, {}, {}});
   pr.model = [](const double*, std::size_t) { return JointModelAtPose{}; };
   const OutputErrorResult r = fit_output_error(pr);
   EXPECT_FALSE(r.ok);
   EXPECT_NE(r.message.find("fewer than 10"), std::string::npos) << r.message;
   const RunData e = resting_run(50);
-  pr.runs = {{&e, Controller{}, 1.0, {}}};
+  pr.runs = {{&e, Controller{}, 1.0, {}, {}}};
   pr.parameters = {{"c", 5.0, 6.0, 7.0}};
   EXPECT_NE(fit_output_error(pr).message.find("outside its bounds"), std::string::npos);
   EXPECT_EQ(fit_output_error(pr).brief_report(),
@@ -136,7 +136,7 @@ TEST(OutputError, InvalidOptionsAreNamedInTheResultNotThrown) {
   EXPECT_NO_THROW(o.validate());
   const RunData e = resting_run(50);
   OutputErrorProblem pr;
-  pr.runs = {{&e, Controller{}, 1.0, {}}};
+  pr.runs = {{&e, Controller{}, 1.0, {}, {}}};
   pr.parameters = {{"c", 5.0, 1.0, 10.0}, {"beta_tilde", 200.0, 10.0, 1e3}};
   pr.model = [](const double*, std::size_t) { return JointModelAtPose{}; };
   o.max_iterations = 0;

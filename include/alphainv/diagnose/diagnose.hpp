@@ -56,6 +56,7 @@
 #include "alphainv/diagnose/separability.hpp"
 #include "alphainv/diagnose/verdict.hpp"
 #include "alphainv/model/controller.hpp"
+#include "alphainv/simulate/recorded_run.hpp"  // MeasuredStart
 #include "alphainv/data/dataset.hpp"
 #include "alphainv/model/effects.hpp"
 #include "alphainv/identify/fit_pipeline.hpp"
@@ -84,6 +85,10 @@ struct DiagnoseRun {
   /// Commands of the ticks before the run's first sample (oldest first), for a run that starts
   /// mid-way (see InitialState::command_history). Usually empty.
   std::vector<double> command_history;
+  /// The measured state at the first sample of a run that starts mid-way (measured_state_at()
+  /// on the longer record; diagnose's fit windows and folds set it); NaN: from the run's first
+  /// samples.
+  MeasuredStart start;
 };
 
 /// Settings of diagnose().

@@ -30,6 +30,9 @@ struct OutputErrorRun {
   double weight = 1.0;            ///< weight of its squared residuals
   /// Commands before the first sample, oldest first (InitialState::command_history). Usually empty.
   std::vector<double> command_history;
+  /// The measured state at the first sample when the run is a window of a longer record
+  /// (measured_state_at()); NaN: from the run's first samples (initial_state_of()).
+  MeasuredStart start;
 };
 
 /// One free parameter.
