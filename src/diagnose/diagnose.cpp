@@ -1180,7 +1180,7 @@ CandidateScore CandidateFitter::fit_joint(const std::vector<EffectKind>& kinds, 
   // 22.1, 231 (0.00049; the plant's 2.2, 25, 250). Fitted with it from the same start and from
   // the effect's extra starts (EffectSpec::extra_starts: the command-path effects, whose cost
   // has several minima), taken when kSecondAlphaGain better. Also for a candidate hopeless at
-  // the first (a 7 mV deadzone, seed 15: 0.00107 there, 0.00052 at the refined breakpoints).
+  // the first (a 7 mV deadzone, seed 15: 0.00107 there, 0.00067 at the refined breakpoints).
   std::string alpha_note;
   if (second_alpha && kinds.size() == 1 && effect_spec(kind).extra_starts != nullptr) {
     OutputErrorProblem p2 =

@@ -319,8 +319,9 @@ class CandidateFitter {
   /// else its training RMS, and its blocks and values go to *later for cross_validate(). Its
   /// error_after is the RMS over all runs given.
   /// `second_alpha`: a second α-model (the breakpoints refined locally, CandidateSearch::
-  /// refined_alpha): a candidate that is not hopeless is fitted again from the same start with
-  /// it, and it is taken when its training RMS is kSecondAlphaGain lower (the factors can make a
+  /// refined_alpha): a single command-path candidate (an effect with extra starts: delay,
+  /// saturation, deadzone), hopeless or not, is fitted again with it from the lowest of its
+  /// screened starts, and that fit is taken when its training RMS is kSecondAlphaGain lower (the factors can make a
   /// breakpoint set that predicts the windows worse at unit factors the better one; the winner
   /// must still beat `none` refitted at its breakpoints, passes_guards()).
   CandidateScore fit(EffectKind kind, const Effects& e, const ModelScales& start_scales,
