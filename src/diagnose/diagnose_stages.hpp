@@ -321,9 +321,9 @@ class CandidateFitter {
   /// `second_alpha`: a second α-model (the breakpoints refined locally, CandidateSearch::
   /// refined_alpha): a single command-path candidate (an effect with extra starts: delay,
   /// saturation, deadzone), hopeless or not, is fitted again with it from the lowest of its
-  /// screened starts, and that fit is taken when its training RMS is kSecondAlphaGain lower (the factors can make a
-  /// breakpoint set that predicts the windows worse at unit factors the better one; the winner
-  /// must still beat `none` refitted at its breakpoints, passes_guards()).
+  /// screened starts, and that fit is taken when its training RMS is kSecondAlphaGain lower
+  /// (the factors can make a breakpoint set that predicts the windows worse at unit factors the
+  /// better one; the winner must still beat `none` refitted at its breakpoints, passes_guards()).
   CandidateScore fit(EffectKind kind, const Effects& e, const ModelScales& start_scales,
                      const std::optional<AlphaModel>& alpha, bool searched, bool cv,
                      PendingCrossValidation* later,
