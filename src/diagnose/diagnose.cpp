@@ -285,6 +285,25 @@ OutputErrorProblem make_problem(const std::vector<DiagnoseRun>& runs,
   return pr;
 }
 
+/// The extra starts of a single new command-path effect (EffectSpec::extra_starts; none for
+/// other effects): the problem's parameters at their initial values but the effect's (the
+/// last) at each extra value, clamped to its bounds; a value within 1e-3 of its initial one is
+/// left out (the initial start is the fit's own).
+std::vector<std::vector<double>> extra_start_points(const OutputErrorProblem& pr, EffectKind kind,
+                                                    const DataScales& sc) {
+  std::vector<std::vector<double>> out;
+  const EffectSpec& spec = effect_spec(kind);
+  if (spec.extra_starts == nullptr || pr.parameters.empty()) return out;
+  const std::size_t at = pr.parameters.size() - 1;  // the new effect's (only) parameter
+  for (double x : spec.extra_starts(sc.effect())) {
+    std::vector<double> p0;
+    for (const auto& par : pr.parameters) p0.push_back(par.initial);
+    p0[at] = std::clamp(x, pr.parameters[at].lower, pr.parameters[at].upper);
+    if (std::abs(p0[at] - pr.parameters[at].initial) > 1e-3 * std::abs(p0[at])) out.push_back(std::move(p0));
+  }
+  return out;
+}
+
 /// The coefficient factors in fitted values p (shaped like `shape`).
 ModelScales scales_of(const ModelScales& shape, const std::vector<double>& p) {
   ModelScales sc;
@@ -1013,9 +1032,12 @@ CandidateSearch search_candidate(EffectKind kind, const PreparedRuns& prepared,
       // The breakpoints refined locally at the point found: nearer the plant's than the grid's
       // when the effect moves the sine points (a deadzone, a delay), though worse at unit
       // factors; the output-error fit judges it with the factors (CandidateFitter::fit()).
-      const std::vector<AlphaModel> refined = reid.variants(out.effects, 0, true);
-      if (!refined.empty() && out.alpha && breakpoints_of(refined.front()) != breakpoints_of(*out.alpha))
-        out.refined_alpha = refined.front();
+      // (Only the command-path effects, those with extra starts, are fitted with it.)
+      if (effect_spec(kind).extra_starts != nullptr) {
+        const std::vector<AlphaModel> refined = reid.variants(out.effects, 0, true);
+        if (!refined.empty() && out.alpha && breakpoints_of(refined.front()) != breakpoints_of(*out.alpha))
+          out.refined_alpha = refined.front();
+      }
       return out;
     }
   }
@@ -1116,20 +1138,7 @@ CandidateScore CandidateFitter::fit_joint(const std::vector<EffectKind>& kinds, 
   // The command-path effects have cost functions with several minima (a delay against a
   // lightly damped resonance; a limit or deadzone that is inactive at its start): extra starts
   // (unless the search above has already looked).
-  if (!searched && kinds.size() == 1) {
-    const std::size_t at = pr.parameters.size() - 1;  // the new effect's (only) parameter
-    const EffectSpec& spec = effect_spec(kind);
-    const std::vector<double> extra = spec.extra_starts != nullptr
-                                          ? spec.extra_starts(prepared_.scales.effect())
-                                          : std::vector<double>{};
-    for (double x : extra) {
-      std::vector<double> p0;
-      for (const auto& par : pr.parameters) p0.push_back(par.initial);
-      p0[at] = std::clamp(x, pr.parameters[at].lower, pr.parameters[at].upper);
-      if (std::abs(p0[at] - pr.parameters[at].initial) > 1e-3 * std::abs(p0[at]))
-        oo.extra_starts.push_back(p0);
-    }
-  }
+  if (!searched && kinds.size() == 1) oo.extra_starts = extra_start_points(pr, kind, prepared_.scales);
   for (const Effects& o : other_starts) {  // the new effects' parameters from `o`
     std::vector<double> p0;
     for (const auto& par : pr.parameters) p0.push_back(par.initial);
@@ -1151,7 +1160,6 @@ CandidateScore CandidateFitter::fit_joint(const std::vector<EffectKind>& kinds, 
   cand.ok = true;
   cand.reidentified = searched;
   std::optional<AlphaModel> alpha = cand_alpha;  // the first α-model; the second may replace it
-  cand.alpha = alpha;
   // The candidate at fitted values (on the effects `base`): its model and its RMS over all runs.
   const auto take_fit = [&](const OutputErrorResult& fitted) {
     cand.scales = scales_of(ms, fitted.values);
@@ -1163,15 +1171,6 @@ CandidateScore CandidateFitter::fit_joint(const std::vector<EffectKind>& kinds, 
         prepared_.all);
   };
   take_fit(full);
-  // --- named work (competition): not hopeless either when the error over ALL runs drops by the
-  // significance against none's, though the windows do not show it (the runs' starts from rest,
-  // where the coefficient factors cannot absorb the effect as they do in the steady state).
-  const auto is_hopeless = [&] {
-    return kind != EffectKind::kNone && std::isfinite(none_training_rms_) &&
-           !(full.rms <= (1.0 - 0.5 * opt.significance) * none_training_rms_) &&
-           !(std::isfinite(none_error_after_) &&
-             cand.error_after <= (1.0 - opt.significance) * none_error_after_);
-  };
   // --- named work (competition): the second α-model (the breakpoints refined locally at the
   // search's point). The breakpoint variant chosen at unit factors is not always the one that
   // predicts best once the factors are fitted, and the search (at unit factors) then ends short
@@ -1187,22 +1186,18 @@ CandidateScore CandidateFitter::fit_joint(const std::vector<EffectKind>& kinds, 
         make_problem(prepared_.runs, prepared_.fit_runs, blocks, base, start_scales, opt, second_alpha);
     // The starts (the search's point and the effect's extra starts) screened by their RMS over
     // the fit runs (one simulation each); the fit runs from the lowest.
-    const std::size_t at = p2.parameters.size() - 1;  // the new effect's (only) parameter
-    std::vector<double> p0;
-    for (const auto& par : p2.parameters) p0.push_back(par.initial);
     const auto start_rms = [&](const std::vector<double>& x) {
       return pooled_rms(prepared_.runs,
                         run_rms_with(prepared_.runs, prepared_.fit_runs, effects_of(blocks, base, ms, x),
                                      scales_of(ms, x), opt, second_alpha),
                         prepared_.fit_runs);
     };
+    std::vector<double> p0;
+    for (const auto& par : p2.parameters) p0.push_back(par.initial);
     double lowest = start_rms(p0);
-    const std::vector<double> first = p0;
-    for (double x : effect_spec(kind).extra_starts(prepared_.scales.effect())) {
-      std::vector<double> q = first;
-      q[at] = std::clamp(x, p2.parameters[at].lower, p2.parameters[at].upper);
+    for (std::vector<double>& q : extra_start_points(p2, kind, prepared_.scales)) {
       const double r = start_rms(q);
-      if (std::isfinite(r) && !(r >= lowest)) lowest = r, p0 = q;
+      if (std::isfinite(r) && !(r >= lowest)) lowest = r, p0 = std::move(q);
     }
     for (std::size_t j = 0; j < p0.size(); ++j) p2.parameters[j].initial = p0[j];
     const OutputErrorResult r = fit_output_error(p2, oo);
@@ -1216,7 +1211,13 @@ CandidateScore CandidateFitter::fit_joint(const std::vector<EffectKind>& kinds, 
       take_fit(full);
     }
   }
-  const bool hopeless = is_hopeless();
+  // --- named work (competition): not hopeless either when the error over ALL runs drops by the
+  // significance against none's, though the windows do not show it (the runs' starts from rest,
+  // where the coefficient factors cannot absorb the effect as they do in the steady state).
+  const bool hopeless = kind != EffectKind::kNone && std::isfinite(none_training_rms_) &&
+                        !(full.rms <= (1.0 - 0.5 * opt.significance) * none_training_rms_) &&
+                        !(std::isfinite(none_error_after_) &&
+                          cand.error_after <= (1.0 - opt.significance) * none_error_after_);
   // --- named work (friction smoothing chosen by the data): a friction form's tanh smoothing ε is
   // a modelling choice, kFrictionSmoothingShareOfRmsVelocity of the RMS velocity to start with.
   // A joint's friction can switch sharper than that (a real Coulomb friction is a sign): a
