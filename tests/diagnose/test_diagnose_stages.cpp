@@ -254,7 +254,9 @@ TEST(DiagnoseStages, FitAndCrossValidateScoreTheOffsetBelowNoneAndSettleIt) {
   // Settle: fitted again on the whole fit runs, the error over all runs is not larger, and it
   // passes the all-runs check.
   const CandidateScore settled = settle_winner(fitter, offset);
-  EXPECT_LT(settled.error_after, 0.9 * offset.error_after);  // 0.0035 from 0.0044 here
+  // 0.00122 from 0.00127 here (0.0035 from 0.0044 when the windows started from a one-sided
+  // measured state: the windows' fit is closer to the whole runs' now).
+  EXPECT_LT(settled.error_after, offset.error_after);
   EXPECT_NE(settled.message.find("settled on the whole fit runs"), std::string::npos);
   EXPECT_EQ(settled.effect, EffectKind::kOffsetTorque);
   EXPECT_TRUE(improves_all_runs(settled, start.error_before, c.opt.significance));
