@@ -33,6 +33,8 @@ def main():
     options = {}
     if args.quick and hidden is not None:  # the hidden one, a rival and none: a shorter search
         options["candidates"] = sorted(set(hidden.active) | {"offset_torque"})
+        options["max_effects"] = len(hidden.active)  # no round after the hidden ones
+        options["discover"] = False  # nor the discovered term's fit
     d = alphainv.diagnose(ds, **options)
     print(d.brief_report)
     if not d.ok:
