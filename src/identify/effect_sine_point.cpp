@@ -48,10 +48,13 @@ double deadzone_alpha_ratio(const RunData& run, IndexRange window, double sample
   return sv > 0.0 && su > 0.0 && std::isfinite(ratio) ? ratio : 1.0;
 }
 
-/// The plant input has a torque term n(θ, θ̇) + d(t) (which needs θ̇).
+/// The plant input has a torque term n(θ, θ̇) + d(t) (which needs θ̇): every term of
+/// effect_torque() (every friction form, the discovered term) and the constant ones. (Stribeck,
+/// asymmetric and position-dependent friction were missing: a model holding one had its α-model
+/// re-identified as though its friction were not in the plant input, and absorbed it twice.)
 bool has_torque(const Effects& effects, const KnownInputSeries& known) {
-  return effects.coulomb_v > 0.0 || effects.offset_v != 0.0 || effects.gravity_v != 0.0 ||
-         effects.cogging_v != 0.0 || known.has_disturbance();
+  return torque_depends_on_state(effects) || effects.offset_v != 0.0 ||
+         effects.discovered_one_v != 0.0 || known.has_disturbance();
 }
 
 }  // namespace

@@ -133,6 +133,43 @@ TEST(EffectSinePoint, CoulombFrictionIsTakenOutOfC) {
   EXPECT_LT(r.corrected.c, 0.1 * r.naive.c);
 }
 
+TEST(EffectSinePoint, EveryFrictionFormIsTakenOutOfCAsCoulombFrictionIs) {
+  // Stribeck friction with no hump (Fs = Fc), asymmetric friction with equal levels and no
+  // viscous difference, position-dependent friction with no slope: each is Coulomb friction of
+  // level Fc in its own form, so the points read with it equal those read with coulomb_v = Fc
+  // (each form was once left out of the plant input, and read as no friction at all).
+  const double fc = 0.01, eps = 0.001;
+  Effects coulomb;
+  coulomb.coulomb_v = fc;
+  coulomb.coulomb_smoothing_rad_s = eps;
+  Effects stribeck;
+  stribeck.stribeck_coulomb_v = stribeck.stribeck_breakaway_v = fc;
+  stribeck.stribeck_smoothing_rad_s = eps;
+  Effects asymmetric;
+  asymmetric.asymmetric_coulomb_pos_v = asymmetric.asymmetric_coulomb_neg_v = fc;
+  asymmetric.asymmetric_smoothing_rad_s = eps;
+  Effects position;
+  position.position_coulomb_v = fc;
+  position.position_smoothing_rad_s = eps;
+  const SweepAtPose s = sweep(coulomb, {0.5, 2.0});
+  const double kp = s.plan.options.controller.kp, T = s.plan.options.plant.tick_period_s;
+  for (std::size_t i = 0; i < s.runs.size(); ++i) {
+    const double f = s.plan.runs[i].freq_hz;
+    const IndexRange win = steady_state_window(s.runs[i].t, f, s.plan.runs[i].steady_state_start_s);
+    const LocalLinearPoint ref = sine_point_with_effects(s.runs[i], win, f, kp, T, coulomb);
+    const LocalLinearPoint none = sine_point_with_effects(s.runs[i], win, f, kp, T, Effects{});
+    ASSERT_TRUE(ref.physical);
+    // The friction is there to take out: at 0.5 Hz C read without it is off by far more.
+    if (f < 1.0) EXPECT_GT(std::abs(none.c_data / ref.c_data - 1.0), 0.1);
+    for (const Effects* e : {&stribeck, &asymmetric, &position}) {
+      const LocalLinearPoint p = sine_point_with_effects(s.runs[i], win, f, kp, T, *e);
+      ASSERT_TRUE(p.physical) << "f = " << f;
+      EXPECT_NEAR(p.c_data, ref.c_data, 1e-9 * std::abs(ref.c_data)) << "f = " << f;
+      EXPECT_NEAR(p.beta_data, ref.beta_data, 1e-9 * std::abs(ref.beta_data)) << "f = " << f;
+    }
+  }
+}
+
 TEST(EffectSinePoint, ADeadzoneIsTakenOutOfCAndBeta) {
   // Z(v) = sign(v)·max(|v| − d, 0) lowers the input's fundamental (its describing function) and its
   // α (flat near zero); read with the deadzone, the gain and α are the plant input's. Uncorrected:
