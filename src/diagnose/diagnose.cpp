@@ -1367,6 +1367,18 @@ void cross_validate_lowest(const CandidateFitter& fitter, std::vector<CandidateS
   for (std::size_t k : order) fitter.cross_validate(candidates[k], pending[k].blocks, pending[k].values);
 }
 
+std::size_t best_parent(EffectKind kind, const std::vector<CandidateScore>& candidates) {
+  const EffectSpec& spec = effect_spec(kind);
+  std::size_t p = candidates.size();
+  for (std::size_t k = 0; k < candidates.size(); ++k) {
+    const CandidateScore& c = candidates[k];
+    if (spec.generalises(c.effect) && c.ok && c.cross_validated &&
+        (p == candidates.size() || c.score < candidates[p].score))
+      p = k;
+  }
+  return p;
+}
+
 void try_refinements(const CandidateFitter& fitter, const RoundStart& start,
                      const Reidentifier& reid, const std::vector<std::size_t>& refinements,
                      std::vector<CandidateScore>& candidates) {
@@ -1376,11 +1388,7 @@ void try_refinements(const CandidateFitter& fitter, const RoundStart& start,
     const EffectSpec& spec = effect_spec(kind);
     // The effect it generalises (the better scored of its two, when it has two) among the
     // cross-validated: else it is not tried.
-    auto p = candidates.end();
-    for (auto it = candidates.begin(); it != candidates.end(); ++it) {
-      const bool parent = spec.generalises(it->effect) && it->ok && it->cross_validated;
-      if (parent && (p == candidates.end() || it->score < p->score)) p = it;
-    }
+    auto p = candidates.begin() + static_cast<std::ptrdiff_t>(best_parent(kind, candidates));
     // A parent named in an earlier round (its form chosen before the other effects were in the
     // model): the generalisation is tried on top of it, from `none`'s fit, which holds it; it
     // must then beat `none` as any candidate (choose_winner()).
@@ -2245,14 +2253,9 @@ DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const Prep
     // over all runs (and passes the same tests). The CV score of the fit windows alone chose
     // between two nested forms whose difference the whole runs do not bear out (EMPS: Stribeck
     // 3.63e-6 over all runs against the Coulomb friction it generalises, 2.75e-6).
-    const EffectSpec& spec = effect_spec(s.effect);
-    const CandidateScore* parent = nullptr;
-    for (const CandidateScore& c : rd.candidates) {
-      if (spec.generalises(c.effect) && c.ok && c.cross_validated && (parent == nullptr || c.score < parent->score))
-        parent = &c;
-    }
-    if (parent != nullptr) {
-      CandidateScore p = settle_winner(fitter, *parent);
+    const std::size_t parent = best_parent(s.effect, rd.candidates);
+    if (parent < rd.candidates.size()) {
+      CandidateScore p = settle_winner(fitter, rd.candidates[parent]);
       if (std::isfinite(p.error_after) && p.error_after <= s.error_after &&
           fails_all_runs(p.error_after, rd, opt.significance).empty()) {
         p.message = then_note("named for " + std::string(effect_name(s.effect)) +

@@ -398,6 +398,10 @@ void cross_validate_lowest(const CandidateFitter& fitter, std::vector<CandidateS
 std::optional<EffectKind> take_in_parent(EffectKind kind, Effects& e,
                                          const std::vector<EffectKind>& named);
 
+/// The position in `candidates` of the effect `kind` generalises (EffectSpec::generalises) that
+/// was fitted and cross-validated, the lowest scored when several; candidates.size() when none.
+std::size_t best_parent(EffectKind kind, const std::vector<CandidateScore>& candidates);
+
 /// Refinements: each candidate at `refinements` (a generalisation, EffectSpec::refines) is
 /// searched, fitted and cross-validated only when the effect it generalises was cross-validated
 /// (among the two lowest training RMS); it stays a contender only when it beats that one by

@@ -870,6 +870,23 @@ TEST(DiagnoseStages, AGeneralisationTakesInTheCoulombLevelOfAnEarlierRound) {
   EXPECT_EQ(f.coulomb_v, before.coulomb_v);
 }
 
+// The parent of a generalisation (try_refinements(), and the generalisation settled against
+// it in a round): the lowest scored of the effects it generalises that were fitted and
+// cross-validated. Asymmetric friction generalises Coulomb friction and the offset.
+TEST(DiagnoseStages, TheBestParentIsTheLowestScoredCrossValidatedEffectItGeneralises) {
+  std::vector<CandidateScore> c = {scored(EffectKind::kNone, 1.0), scored(EffectKind::kCoulombFriction, 0.5),
+                                   scored(EffectKind::kOffsetTorque, 0.4), scored(EffectKind::kGravity, 0.1),
+                                   scored(EffectKind::kAsymmetricFriction, 0.3)};
+  for (CandidateScore& x : c) x.cross_validated = true;
+  EXPECT_EQ(best_parent(EffectKind::kAsymmetricFriction, c), 2u);  // the offset, 0.4
+  EXPECT_EQ(best_parent(EffectKind::kStribeckFriction, c), 1u);    // Coulomb friction only
+  c[2].cross_validated = false;                                    // not scored: not a parent
+  EXPECT_EQ(best_parent(EffectKind::kAsymmetricFriction, c), 1u);
+  c[1].ok = false;  // not fitted
+  EXPECT_EQ(best_parent(EffectKind::kStribeckFriction, c), c.size());
+  EXPECT_EQ(best_parent(EffectKind::kGravity, c), c.size());  // generalises nothing
+}
+
 // A friction form's smoothing ε is a modelling choice the data may sharpen
 // (CandidateFitter::fit_joint()): Coulomb friction generated switching within 0.001 rad/s is
 // fitted at ε × kSharperFrictionSmoothing; generated smoother than the first ε (0.05 rad/s
