@@ -1367,6 +1367,12 @@ void cross_validate_lowest(const CandidateFitter& fitter, std::vector<CandidateS
   for (std::size_t k : order) fitter.cross_validate(candidates[k], pending[k].blocks, pending[k].values);
 }
 
+bool is_sibling_form(EffectKind kind, EffectKind other) {
+  const EffectSpec& a = effect_spec(kind);
+  const EffectSpec& b = effect_spec(other);
+  return kind != other && a.refines != EffectKind::kNone && a.refines == b.refines;
+}
+
 std::size_t best_parent(EffectKind kind, const std::vector<CandidateScore>& candidates) {
   const EffectSpec& spec = effect_spec(kind);
   std::size_t p = candidates.size();
@@ -1391,15 +1397,19 @@ void try_refinements(const CandidateFitter& fitter, const RoundStart& start,
     auto p = candidates.begin() + static_cast<std::ptrdiff_t>(best_parent(kind, candidates));
     // A parent named in an earlier round (its form chosen before the other effects were in the
     // model): the generalisation is tried on top of it, from `none`'s fit, which holds it; it
-    // must then beat `none` as any candidate (choose_winner()).
+    // must then beat `none` as any candidate (choose_winner()). So too on top of a named sibling
+    // form: a friction that differs by direction and has a Stribeck hump as well (asymmetric +
+    // Stribeck friction, seed 41: the asymmetric friction named in round 1, then Stribeck
+    // friction never tried, for Coulomb friction was neither named nor a candidate).
     bool parent_named = false;
     if (p == candidates.end()) {
       p = std::find_if(candidates.begin(), candidates.end(),
                        [](const CandidateScore& c) { return c.effect == EffectKind::kNone && c.ok; });
       const auto& named = fitter.model().named;
       parent_named = p != candidates.end() &&
-                     std::any_of(named.begin(), named.end(),
-                                 [&](EffectKind k) { return spec.generalises(k); });
+                     std::any_of(named.begin(), named.end(), [&](EffectKind k) {
+                       return spec.generalises(k) || is_sibling_form(kind, k);
+                     });
       if (!parent_named) continue;  // no parent among the two best
     }
     const EffectKind parent = p->effect;
@@ -2150,7 +2160,7 @@ DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const Prep
                      (spec.also_refines != EffectKind::kNone
                           ? std::string(" or ") + effect_name(spec.also_refines)
                           : std::string()) +
-                     " is among the two best or named";
+                     " is among the two best or named, or a sibling form is named";
       refinements.push_back(rd.candidates.size());
       rd.candidates.push_back(cand);
       continue;

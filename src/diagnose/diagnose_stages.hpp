@@ -398,6 +398,12 @@ void cross_validate_lowest(const CandidateFitter& fitter, std::vector<CandidateS
 std::optional<EffectKind> take_in_parent(EffectKind kind, Effects& e,
                                          const std::vector<EffectKind>& named);
 
+/// `other` is a sibling form of `kind`: another generalisation of the same effect (Stribeck and
+/// asymmetric friction, both of Coulomb friction). Their extra parts are of other variables (the
+/// speed, the direction), so a joint may have both: a named sibling is a way in for `kind`, as
+/// its named parent is (try_refinements()).
+bool is_sibling_form(EffectKind kind, EffectKind other);
+
 /// The position in `candidates` of the effect `kind` generalises (EffectSpec::generalises) that
 /// was fitted and cross-validated, the lowest scored when several; candidates.size() when none.
 std::size_t best_parent(EffectKind kind, const std::vector<CandidateScore>& candidates);
@@ -406,6 +412,8 @@ std::size_t best_parent(EffectKind kind, const std::vector<CandidateScore>& cand
 /// searched, fitted and cross-validated only when the effect it generalises was cross-validated
 /// (among the two lowest training RMS); it stays a contender only when it beats that one by
 /// (1 − significance/2) in its score and both folds (else it is marked not cross-validated).
+/// With no such candidate, it is tried on top of the model when the effect it generalises or a
+/// sibling form (is_sibling_form()) was named in an earlier round, and must then beat `none`.
 void try_refinements(const CandidateFitter& fitter, const RoundStart& start,
                      const Reidentifier& reid, const std::vector<std::size_t>& refinements,
                      std::vector<CandidateScore>& candidates);

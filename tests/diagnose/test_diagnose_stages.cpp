@@ -887,6 +887,20 @@ TEST(DiagnoseStages, TheBestParentIsTheLowestScoredCrossValidatedEffectItGeneral
   EXPECT_EQ(best_parent(EffectKind::kGravity, c), c.size());  // generalises nothing
 }
 
+// Sibling forms: two generalisations of one effect (the three friction forms of Coulomb
+// friction); not a generalisation and its parent, not an effect and itself, not two effects that
+// generalise nothing.
+TEST(DiagnoseStages, SiblingFormsGeneraliseTheSameEffect) {
+  EXPECT_TRUE(is_sibling_form(EffectKind::kStribeckFriction, EffectKind::kAsymmetricFriction));
+  EXPECT_TRUE(is_sibling_form(EffectKind::kAsymmetricFriction, EffectKind::kStribeckFriction));
+  EXPECT_TRUE(is_sibling_form(EffectKind::kPositionDependentFriction, EffectKind::kStribeckFriction));
+  EXPECT_FALSE(is_sibling_form(EffectKind::kStribeckFriction, EffectKind::kStribeckFriction));
+  EXPECT_FALSE(is_sibling_form(EffectKind::kStribeckFriction, EffectKind::kCoulombFriction));
+  EXPECT_FALSE(is_sibling_form(EffectKind::kCoulombFriction, EffectKind::kStribeckFriction));
+  EXPECT_FALSE(is_sibling_form(EffectKind::kGravity, EffectKind::kOffsetTorque));
+  EXPECT_FALSE(is_sibling_form(EffectKind::kNone, EffectKind::kNone));
+}
+
 // A friction form's smoothing ε is a modelling choice the data may sharpen
 // (CandidateFitter::fit_joint()): Coulomb friction generated switching within 0.001 rad/s is
 // fitted at ε × kSharperFrictionSmoothing; generated smoother than the first ε (0.05 rad/s
