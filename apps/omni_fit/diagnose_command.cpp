@@ -158,6 +158,7 @@ nlohmann::json result_json(const DiagnoseResult& res) {
       per_run.push_back({{"run", f.run_names[i]}, {"ok", r.ok}, {"windows", r.windows},
                          {"active_windows", r.active_windows}, {"baseline_v", num(r.baseline_v)},
                          {"spread_v", num(r.spread_v)}, {"intervals", r.intervals.size()},
+                         {"position_part_removed", r.position_part_removed},
                          {"message", r.message}});
     }
     j["disturbance"] = {{"named", f.named}, {"message", f.message}, {"rms_v", num(f.rms_v)},

@@ -223,7 +223,7 @@ DisturbanceFinding locate_external_disturbance(const std::vector<DiagnoseRun>& r
     const std::vector<double> span_ends = leave_out_jumps(d, valid);
     DisturbanceOptions run_opt = dopt;
     run_opt.reference_period_s = reference_period_s(d);
-    f.runs[i] = locate_disturbance(d.t, n_hat, valid, run_opt, state_basis(d.theta, dth));
+    f.runs[i] = locate_disturbance(d.t, n_hat, valid, run_opt, state_basis(d.theta, dth), d.theta);
     drop_transient_tails(d.t, span_ends, dopt.window_s, f.runs[i]);
   });
   double ss = 0.0, n = 0.0;

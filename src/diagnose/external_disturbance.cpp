@@ -126,6 +126,60 @@ std::vector<double> without_periodic_part(const std::vector<double>& t, const st
   return out;
 }
 
+/// `n` less its part that is a function of `x` (header, "What the position explains"): the
+/// median over the passes through each of kPositionBins bins of x's range (over `use`; a pass
+/// ends when x has been out of the bin for more than gap_s) of the passes' means of n, where a bin has kMinPositionPasses passes or more; the samples of the
+/// other bins (and outside the range) are cleared in `located` (not located: a torque of position
+/// there cannot be told from one of time). `n` itself when x is empty or its range is 0.
+std::vector<double> without_position_part(const std::vector<double>& t, const std::vector<double>& x,
+                                          const std::vector<double>& n, const std::vector<bool>& use,
+                                          double gap_s, std::vector<bool>& located) {
+  if (x.empty()) return n;
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (std::size_t k = 0; k < x.size(); ++k) {
+    if (use[k]) lo = std::min(lo, x[k]), hi = std::max(hi, x[k]);
+  }
+  if (!(hi > lo)) return n;
+  const std::size_t bins = DisturbanceOptions::kPositionBins;
+  const double width = (hi - lo) / static_cast<double>(bins);
+  const auto bin_of = [&](double xk) -> std::size_t {
+    if (!(xk >= lo && xk <= hi)) return bins;  // outside the range (or NaN): none
+    return std::min(bins - 1, static_cast<std::size_t>((xk - lo) / width));
+  };
+  // The passes' means per bin: a pass is the bin's samples until the joint has been away from it
+  // longer than `gap_s` (a jitter across a bin's edge is not a new pass, a return is).
+  struct Pass {
+    double sum = 0.0, last_s = 0.0;
+    std::size_t m = 0;
+  };
+  std::vector<std::vector<Pass>> passes(bins);
+  for (std::size_t k = 0; k < x.size(); ++k) {
+    const std::size_t b = use[k] ? bin_of(x[k]) : bins;
+    if (b == bins) continue;
+    std::vector<Pass>& p = passes[b];
+    if (p.empty() || t[k] - p.back().last_s > gap_s) p.emplace_back();
+    p.back().sum += n[k], ++p.back().m, p.back().last_s = t[k];
+  }
+  std::vector<std::vector<double>> pass_means(bins);
+  for (std::size_t b = 0; b < bins; ++b) {
+    for (const Pass& p : passes[b]) pass_means[b].push_back(p.sum / static_cast<double>(p.m));
+  }
+  std::vector<double> med(bins, kNaN);
+  for (std::size_t b = 0; b < bins; ++b) {
+    if (pass_means[b].size() >= DisturbanceOptions::kMinPositionPasses) med[b] = median(pass_means[b]);
+  }
+  std::vector<double> out(n);
+  for (std::size_t k = 0; k < x.size(); ++k) {
+    const std::size_t b = bin_of(x[k]);
+    if (b < bins && std::isfinite(med[b])) {
+      out[k] -= med[b];
+    } else {
+      located[k] = false;
+    }
+  }
+  return out;
+}
+
 /// One pass of the location on `n` (the file comment of the header, after the state fit).
 DisturbanceEstimate locate_once(const std::vector<double>& t, const std::vector<double>& n,
                                 const std::vector<bool>& valid, const DisturbanceOptions& o);
@@ -176,8 +230,14 @@ void set_aside_half_period_pairs(const std::vector<double>& t, double period_s, 
 DisturbanceEstimate locate_disturbance(const std::vector<double>& t, const std::vector<double>& n,
                                        const std::vector<bool>& valid_in,
                                        const DisturbanceOptions& o,
-                                       const std::vector<std::vector<double>>& basis) {
+                                       const std::vector<std::vector<double>>& basis,
+                                       const std::vector<double>& position) {
   o.validate();
+  if (!position.empty() && position.size() != t.size()) {
+    throw Error("expected as many values as times (" + std::to_string(t.size()) + "), found " +
+                    std::to_string(position.size()),
+                {}, 0, "position_rad");
+  }
   for (std::size_t j = 0; j < basis.size(); ++j) {
     if (basis[j].size() != t.size()) {
       throw Error("expected as many values as times (" + std::to_string(t.size()) + "), found " +
@@ -201,20 +261,43 @@ DisturbanceEstimate locate_disturbance(const std::vector<double>& t, const std::
     for (std::size_t k = 0; k < n.size(); ++k) valid[k] = valid[k] && std::isfinite(col[k]);
   }
   const double bin_s = o.window_s / 5.0;
-  DisturbanceEstimate d = locate_once(
-      t, without_periodic_part(t, state_remainder(n, valid, basis), valid, o.reference_period_s, bin_s),
-      valid, o);
-  if ((basis.empty() && !(o.reference_period_s > 0.0)) || d.intervals.empty()) {
+  // The state's part, then (where it narrows the spread) the position's, then the reference's
+  // (header comment). `located`: the samples judged (those of positions not repeated left out).
+  const auto remainder = [&](const std::vector<bool>& use, bool with_position, std::vector<bool>& located) {
+    const std::vector<double> s = state_remainder(n, use, basis);
+    return without_periodic_part(t, with_position ? without_position_part(t, position, s, use, 0.5 * o.window_s, located) : s,
+                                 use, o.reference_period_s, bin_s);
+  };
+  std::vector<bool> located = valid;
+  DisturbanceEstimate d = locate_once(t, remainder(valid, false, located), located, o);
+  bool with_position = false;
+  if (!position.empty()) {
+    std::vector<bool> located_p = valid;
+    const std::vector<double> r = remainder(valid, true, located_p);
+    const auto count = [](const std::vector<bool>& f) {
+      return static_cast<double>(std::count(f.begin(), f.end(), true));
+    };
+    if (count(located_p) >= DisturbanceOptions::kMinPositionShare * count(valid)) {
+      DisturbanceEstimate dp = locate_once(t, r, located_p, o);
+      if (dp.ok && (!d.ok || dp.spread_v <= DisturbanceOptions::kPositionSpreadGain * d.spread_v)) {
+        d = std::move(dp);
+        located = std::move(located_p);
+        with_position = true;
+      }
+    }
+  }
+  d.position_part_removed = with_position;
+  if ((basis.empty() && !with_position && !(o.reference_period_s > 0.0)) || d.intervals.empty()) {
     set_aside_half_period_pairs(t, o.reference_period_s, d);
     return d;
   }
-  // Again with the state (and the periodic part) fitted without the intervals' samples (the
-  // pulses do not bend it).
+  // Again with the state (and the position's and periodic parts) fitted without the intervals'
+  // samples (the pulses do not bend it), on the samples judged the first time.
   std::vector<bool> use = valid;
   for (std::size_t k = 0; k < t.size(); ++k) use[k] = use[k] && d.d_v[k] == 0.0;
-  DisturbanceEstimate again = locate_once(
-      t, without_periodic_part(t, state_remainder(n, use, basis), use, o.reference_period_s, bin_s),
-      valid, o);
+  std::vector<bool> unused = valid;
+  DisturbanceEstimate again = locate_once(t, remainder(use, with_position, unused), located, o);
+  again.position_part_removed = with_position;
   set_aside_half_period_pairs(t, o.reference_period_s, again);
   return again;
 }

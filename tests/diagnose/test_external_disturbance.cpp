@@ -193,6 +193,87 @@ TEST(LocateDisturbance, RemovesWhatRepeatsWithTheReferenceBeforeLocating) {
   EXPECT_EQ(s.intervals.size(), s_blind.intervals.size());
 }
 
+// A torque of position (a cogging of period 0.02 rad, 0.02 high) along a path that is not the same
+// each cycle (a 2 Hz sine whose amplitude wanders between 0.06 and 0.14 rad), white noise (0.002)
+// and three pulses of ±0.03: neither the state functions nor the reference's period hold the
+// cogging; its median at each position does.
+TEST(LocateDisturbance, RemovesWhatIsAFunctionOfPositionBeforeLocating) {
+  std::mt19937 rng(13);
+  std::normal_distribution<double> noise(0.0, 0.002);
+  std::vector<double> t, n, theta;
+  const double starts[] = {1.37, 3.91, 6.53}, levels[] = {0.03, -0.03, 0.03};
+  for (int k = 0; k < 8000; ++k) {
+    const double tk = 1e-3 * k;
+    const double amplitude = 0.1 + 0.04 * std::sin(kTwoPi * 0.37 * tk);
+    const double x = amplitude * std::sin(kTwoPi * 2.0 * tk);
+    double d = 0.0;
+    for (int i = 0; i < 3; ++i) d += (tk >= starts[i] && tk < starts[i] + 0.1) ? levels[i] : 0.0;
+    t.push_back(tk);
+    theta.push_back(x);
+    n.push_back(0.02 * std::sin(kTwoPi * x / 0.02 + 0.5) + d + noise(rng));
+  }
+  DisturbanceOptions o;
+  o.reference_period_s = 0.5;
+  const auto found = [&](const DisturbanceEstimate& e) {
+    int hits = 0;
+    for (double s0 : starts) {
+      for (const DisturbanceInterval& iv : e.intervals) hits += std::abs(iv.start_s - s0) < 0.01;
+    }
+    return hits;
+  };
+  const DisturbanceEstimate blind = locate_disturbance(t, n, {}, o);
+  EXPECT_LT(found(blind), 3);
+  const DisturbanceEstimate d = locate_disturbance(t, n, {}, o, {}, theta);
+  ASSERT_TRUE(d.ok) << d.message;
+  ASSERT_EQ(d.intervals.size(), 3u) << d.message;
+  EXPECT_EQ(found(d), 3);
+  EXPECT_TRUE(d.position_part_removed);
+  EXPECT_FALSE(blind.position_part_removed);
+  EXPECT_LT(d.spread_v, 0.5 * blind.spread_v);
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_NEAR(d.intervals[i].start_s, starts[i], 0.01) << i;
+    EXPECT_NEAR(d.intervals[i].end_s, starts[i] + 0.1, 0.01) << i;
+    EXPECT_NEAR(d.intervals[i].level_v, levels[i], 0.005) << i;
+  }
+  // Without the pulses, the cogging alone locates nothing.
+  std::vector<double> clean(n.size());
+  for (std::size_t k = 0; k < n.size(); ++k) {
+    double dk = 0.0;
+    for (int i = 0; i < 3; ++i) dk += (t[k] >= starts[i] && t[k] < starts[i] + 0.1) ? levels[i] : 0.0;
+    clean[k] = n[k] - dk;
+  }
+  EXPECT_TRUE(locate_disturbance(t, clean, {}, o, {}, theta).intervals.empty());
+  // A position series of another length is refused, naming it.
+  try {
+    locate_disturbance(t, n, {}, o, {}, std::vector<double>(5, 0.0));
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.field(), "position_rad");
+  }
+}
+
+// A hold the joint is pushed off: θ jitters about 0 (quantised to 1e-4 rad), and a push of 0.04
+// from 2.3 s to 3.1 s moves it to 0.02 rad, a position held nowhere else. The position is not
+// repeated enough for its part to be removed (a torque of position and one of time are the same
+// thing there): the push is located as without θ.
+TEST(LocateDisturbance, KeepsAPushOffAHoldThatNoPositionRepeats) {
+  std::mt19937 rng(17);
+  std::normal_distribution<double> noise(0.0, 0.002), jitter(0.0, 1.5e-4);
+  std::vector<double> t, n, theta;
+  for (int k = 0; k < 5000; ++k) {
+    const double tk = 1e-3 * k;
+    const bool pushed = tk >= 2.3 && tk < 3.1;
+    t.push_back(tk);
+    theta.push_back(1e-4 * std::round(((pushed ? 0.02 : 0.0) + jitter(rng)) / 1e-4));
+    n.push_back((pushed ? 0.04 : 0.0) + noise(rng));
+  }
+  const DisturbanceEstimate d = locate_disturbance(t, n, {}, {}, {}, theta);
+  ASSERT_EQ(d.intervals.size(), 1u) << d.message;
+  EXPECT_FALSE(d.position_part_removed);
+  EXPECT_NEAR(d.intervals[0].start_s, 2.3, 0.005);
+  EXPECT_NEAR(d.intervals[0].end_s, 3.1, 0.005);
+  EXPECT_NEAR(d.intervals[0].level_v, 0.04, 0.003);
+}
 
 // Mirrored half cycles: under a reference of period 1 s (too few cycles in the 3 s for its
 // periodic part to be removed), two intervals of opposite sign 0.5 s apart are the model's misfit
