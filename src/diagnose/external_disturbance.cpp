@@ -180,9 +180,13 @@ std::vector<double> without_position_part(const std::vector<double>& t, const st
   return out;
 }
 
-/// One pass of the location on `n` (the file comment of the header, after the state fit).
+/// One pass of the location on `n` (the file comment of the header, after the state fit): the
+/// windows' means over the samples `judged` (a subset of `valid`: those of positions not repeated
+/// left out), an interval's edges and level over the samples `valid` (a pulse that pushes the
+/// joint where it has not been is located whole).
 DisturbanceEstimate locate_once(const std::vector<double>& t, const std::vector<double>& n,
-                                const std::vector<bool>& valid, const DisturbanceOptions& o);
+                                const std::vector<bool>& valid, const std::vector<bool>& judged,
+                                const DisturbanceOptions& o);
 
 /// Sets aside the intervals of `d` that have a neighbour of the opposite sign half a reference
 /// period away (within DisturbanceOptions::kHalfPeriodTolerance of it): the model's misfit along
@@ -269,7 +273,7 @@ DisturbanceEstimate locate_disturbance(const std::vector<double>& t, const std::
                                  use, o.reference_period_s, bin_s);
   };
   std::vector<bool> located = valid;
-  DisturbanceEstimate d = locate_once(t, remainder(valid, false, located), located, o);
+  DisturbanceEstimate d = locate_once(t, remainder(valid, false, located), valid, located, o);
   bool with_position = false;
   if (!position.empty()) {
     std::vector<bool> located_p = valid;
@@ -278,7 +282,7 @@ DisturbanceEstimate locate_disturbance(const std::vector<double>& t, const std::
       return static_cast<double>(std::count(f.begin(), f.end(), true));
     };
     if (count(located_p) >= DisturbanceOptions::kMinPositionShare * count(valid)) {
-      DisturbanceEstimate dp = locate_once(t, r, located_p, o);
+      DisturbanceEstimate dp = locate_once(t, r, valid, located_p, o);
       if (dp.ok && (!d.ok || dp.spread_v <= DisturbanceOptions::kPositionSpreadGain * d.spread_v)) {
         d = std::move(dp);
         located = std::move(located_p);
@@ -296,7 +300,7 @@ DisturbanceEstimate locate_disturbance(const std::vector<double>& t, const std::
   std::vector<bool> use = valid;
   for (std::size_t k = 0; k < t.size(); ++k) use[k] = use[k] && d.d_v[k] == 0.0;
   std::vector<bool> unused = valid;
-  DisturbanceEstimate again = locate_once(t, remainder(use, with_position, unused), located, o);
+  DisturbanceEstimate again = locate_once(t, remainder(use, with_position, unused), valid, located, o);
   again.position_part_removed = with_position;
   set_aside_half_period_pairs(t, o.reference_period_s, again);
   return again;
@@ -305,7 +309,8 @@ DisturbanceEstimate locate_disturbance(const std::vector<double>& t, const std::
 namespace {
 
 DisturbanceEstimate locate_once(const std::vector<double>& t, const std::vector<double>& n,
-                                const std::vector<bool>& valid, const DisturbanceOptions& o) {
+                                const std::vector<bool>& valid, const std::vector<bool>& judged,
+                                const DisturbanceOptions& o) {
   DisturbanceEstimate out;
   out.d_v.assign(t.size(), 0.0);
 
@@ -318,7 +323,7 @@ DisturbanceEstimate locate_once(const std::vector<double>& t, const std::vector<
     double s = 0.0;
     std::size_t m = 0;
     while (k < t.size() && t[k] < end) {
-      if (valid[k]) s += n[k], ++m;
+      if (judged[k]) s += n[k], ++m;
       ++k;
     }
     w.last = k;

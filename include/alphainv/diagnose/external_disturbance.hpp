@@ -27,8 +27,9 @@
 /// each position is removed: θ's range in kPositionBins bins, each bin's samples grouped into
 /// passes (a pass ends when θ has been out of the bin for more than window_s/2), the median over
 /// the passes of their means (a pulse in fewer than half the passes does not move it). The samples
-/// of a bin with fewer than kMinPositionPasses passes are not located (a torque of position cannot
-/// be told there from one of time). It is removed only where it serves: when at least
+/// of a bin with fewer than kMinPositionPasses passes are left out of the window means (a torque
+/// of position cannot be told there from one of time), not out of an interval's edges and level
+/// (a pulse that pushes the joint where it has not been is located whole). It is removed only where it serves: when at least
 /// kMinPositionShare of the valid samples are in repeated bins (a hold the joint is pushed off, a
 /// ramp, repeat no position) and it narrows the window means' spread to kPositionSpreadGain of that
 /// without it (DisturbanceEstimate::position_part_removed). Without it, a cogging (period 0.02 rad)
