@@ -24,7 +24,10 @@ double median(std::vector<double> x) {
 /// One window of the means: samples [first, last) of the run, its mean over the valid ones.
 struct Window {
   std::size_t first = 0, last = 0;
-  double mean = kNaN;  ///< NaN: fewer than half its samples valid
+  double mean = kNaN;  ///< NaN: fewer than half its samples judged
+  /// Half its samples valid or more, but fewer than half judged (positions not repeated): a pulse
+  /// may go on through it (locate_once()).
+  bool unjudged = false;
 };
 
 /// The split s in [lo, hi] (sample indices) that maximises Σ_{k ∈ [s, pivot)} w_k when
@@ -321,13 +324,15 @@ DisturbanceEstimate locate_once(const std::vector<double>& t, const std::vector<
     w.first = k;
     const double end = t[k] + o.window_s;
     double s = 0.0;
-    std::size_t m = 0;
+    std::size_t m = 0, m_valid = 0;
     while (k < t.size() && t[k] < end) {
       if (judged[k]) s += n[k], ++m;
+      if (valid[k]) ++m_valid;
       ++k;
     }
     w.last = k;
     if (2 * m >= w.last - w.first && m > 0) w.mean = s / static_cast<double>(m);
+    w.unjudged = !std::isfinite(w.mean) && 2 * m_valid >= w.last - w.first && m_valid > 0;
     win.push_back(w);
   }
   std::vector<double> means;
@@ -370,6 +375,14 @@ DisturbanceEstimate locate_once(const std::vector<double>& t, const std::vector<
     }
     std::size_t jb = j;
     while (jb + 1 < win.size() && sign[jb + 1] == sign[j]) ++jb;
+    // Across windows not judged, to an active window of the same sign: one interval.
+    for (;;) {
+      std::size_t k = jb + 1;
+      while (k < win.size() && win[k].unjudged) ++k;
+      if (k == jb + 1 || k >= win.size() || sign[k] != sign[j]) break;
+      jb = k;
+      while (jb + 1 < win.size() && sign[jb + 1] == sign[j]) ++jb;
+    }
     const std::size_t a = win[j].first, b = win[jb].last;
     double s = 0.0;
     std::size_t m = 0;
@@ -377,9 +390,13 @@ DisturbanceEstimate locate_once(const std::vector<double>& t, const std::vector<
       if (valid[k]) s += n[k] - out.baseline_v, ++m;
     }
     double level = m > 0 ? s / static_cast<double>(m) : 0.0;
-    // The edge lies within one window of the active run's ends.
-    const std::size_t lo = j > 0 ? win[j - 1].first : a;
-    const std::size_t hi = jb + 1 < win.size() ? win[jb + 1].last : b;
+    // The edge lies within one window of the active run's ends, or of the windows not judged
+    // next to them.
+    std::size_t jl = j, jh = jb;
+    while (jl > 0 && win[jl - 1].unjudged) --jl;
+    while (jh + 1 < win.size() && win[jh + 1].unjudged) ++jh;
+    const std::size_t lo = jl > 0 ? win[jl - 1].first : win[jl].first;
+    const std::size_t hi = jh + 1 < win.size() ? win[jh + 1].last : win[jh].last;
     const std::size_t mid_a = std::min(win[j].last, b), mid_b = std::max(win[jb].first, a);
     const std::size_t start = refine_edge(n, valid, out.baseline_v, level, lo, hi, mid_a, true);
     const std::size_t end = refine_edge(n, valid, out.baseline_v, level, lo, hi, mid_b, false);

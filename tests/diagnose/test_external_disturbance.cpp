@@ -252,6 +252,43 @@ TEST(LocateDisturbance, RemovesWhatIsAFunctionOfPositionBeforeLocating) {
   }
 }
 
+// A pulse that pushes the joint where it has not been: θ a 2 Hz sine of 0.1 rad with a wandering
+// amplitude (a cogging in n̂ along it), and during a 0.1 s pulse of 0.03 the path is carried 0.05
+// rad past its usual top. The pulse's last samples lie in positions not repeated (left out of the
+// window means), but its edges and level are taken over every sample: it is located whole.
+TEST(LocateDisturbance, LocatesWholeAPulseThatPushesTheJointWhereItHasNotBeen) {
+  std::mt19937 rng(19);
+  std::normal_distribution<double> noise(0.0, 0.002);
+  std::vector<double> t, n, theta;
+  const double start = 3.12, level = 0.03;  // the pulse; 3.125 s is a crest of the sine
+  for (int k = 0; k < 8000; ++k) {
+    const double tk = 1e-3 * k;
+    const double amplitude = 0.1 + 0.02 * std::sin(kTwoPi * 0.37 * tk);
+    const bool on = tk >= start && tk < start + 0.1;
+    const double x = amplitude * std::sin(kTwoPi * 2.0 * tk) + (on ? 0.05 * std::sin(kTwoPi * 5.0 * (tk - start)) : 0.0);
+    t.push_back(tk);
+    theta.push_back(x);
+    n.push_back(0.02 * std::sin(kTwoPi * x / 0.02 + 0.5) + (on ? level : 0.0) + noise(rng));
+  }
+  DisturbanceOptions o;
+  o.reference_period_s = 0.5;
+  const DisturbanceEstimate d = locate_disturbance(t, n, {}, o, {}, theta);
+  ASSERT_TRUE(d.ok) << d.message;
+  EXPECT_TRUE(d.position_part_removed);
+  ASSERT_GE(d.intervals.size(), 1u) << d.message;
+  // One interval at the pulse, whole: from its start to its end (any split at a window left out
+  // joins end to start).
+  double from = 1e9, to = -1e9;
+  for (const DisturbanceInterval& iv : d.intervals) {
+    EXPECT_GT(iv.start_s, start - 0.02) << iv.start_s;
+    EXPECT_LT(iv.end_s, start + 0.12) << iv.end_s;
+    EXPECT_NEAR(iv.level_v, level, 0.006) << iv.start_s;
+    from = std::min(from, iv.start_s), to = std::max(to, iv.end_s);
+  }
+  EXPECT_NEAR(from, start, 0.01);
+  EXPECT_NEAR(to, start + 0.1, 0.01);
+}
+
 // A hold the joint is pushed off: θ jitters about 0 (quantised to 1e-4 rad), and a push of 0.04
 // from 2.3 s to 3.1 s moves it to 0.02 rad, a position held nowhere else. The position is not
 // repeated enough for its part to be removed (a torque of position and one of time are the same

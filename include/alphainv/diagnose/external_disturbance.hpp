@@ -28,8 +28,10 @@
 /// passes (a pass ends when θ has been out of the bin for more than window_s/2), the median over
 /// the passes of their means (a pulse in fewer than half the passes does not move it). The samples
 /// of a bin with fewer than kMinPositionPasses passes are left out of the window means (a torque
-/// of position cannot be told there from one of time), not out of an interval's edges and level
-/// (a pulse that pushes the joint where it has not been is located whole). It is removed only where it serves: when at least
+/// of position cannot be told there from one of time), not out of an interval's edges and level:
+/// active windows of one sign with only such windows between them are one interval, and its edges
+/// are sought through such windows next to it (a pulse that pushes the joint where it has not
+/// been is located whole). It is removed only where it serves: when at least
 /// kMinPositionShare of the valid samples are in repeated bins (a hold the joint is pushed off, a
 /// ramp, repeat no position) and it narrows the window means' spread to kPositionSpreadGain of that
 /// without it (DisturbanceEstimate::position_part_removed). Without it, a cogging (period 0.02 rad)
@@ -82,7 +84,7 @@ struct DisturbanceOptions {
   /// (file comment, "What the position explains").
   static constexpr std::size_t kPositionBins = 200;
   /// Passes a position bin needs for its median to be removed.
-  static constexpr std::size_t kMinPositionPasses = 6;
+  static constexpr std::size_t kMinPositionPasses = 8;
   /// Share of the valid samples that must lie in repeated bins for the position's part to be
   /// removed.
   static constexpr double kMinPositionShare = 0.5;
