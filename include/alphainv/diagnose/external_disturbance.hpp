@@ -27,16 +27,18 @@
 /// each position is removed: θ's range in kPositionBins bins, each bin's samples grouped into
 /// passes (a pass ends when θ has been out of the bin for more than window_s/2), the median over
 /// the passes of their means (a pulse in fewer than half the passes does not move it). The samples
-/// of a bin with fewer than kMinPositionPasses passes are left out of the window means (a torque
-/// of position cannot be told there from one of time), not out of an interval's edges and level:
+/// of a bin with fewer than kMinPositionPasses passes are left out of the window means (a torque of
+/// position cannot be told there from one of time), not out of an interval's edges and level:
 /// active windows of one sign with only such windows between them are one interval, and its edges
-/// are sought through such windows next to it (a pulse that pushes the joint where it has not
-/// been is located whole). It is removed only where it serves: when at least
-/// kMinPositionShare of the valid samples are in repeated bins (a hold the joint is pushed off, a
-/// ramp, repeat no position) and it narrows the window means' spread to kPositionSpreadGain of that
-/// without it (DisturbanceEstimate::position_part_removed). Without it, a cogging (period 0.02 rad)
-/// + pulses dataset left window means 5-9 times wider in the 2 Hz, 3 Hz and square runs, whose
-/// paths differ cycle to cycle, than in the others, and their 0.05 V pulses were not located.
+/// are sought through such windows next to it (a pulse that pushes the joint where it has not been
+/// is located whole). It is removed only where it serves: when at least kMinPositionShare of the
+/// valid samples are in repeated bins (a hold the joint is pushed off, a ramp, repeat no position)
+/// and it narrows the window means' spread to kPositionSpreadGain of that without it
+/// (DisturbanceEstimate::position_part_removed). On a cogging (period 0.02 rad) + pulses dataset
+/// the square run, whose hold positions differ from hold to hold, left window means 4-5 times wider
+/// than the sine runs' and none of its pulses located; with the position's part removed its three
+/// pulses after a hold are (the 2 Hz and 3 Hz runs' wide remainder is a misfit at the reference's
+/// fundamental whose size varies from cycle to cycle, not a torque of θ, and stays).
 ///
 /// Located. The remainder is averaged over windows of DisturbanceOptions::window_s; a window whose mean is
 /// more than `threshold` robust spreads (1.4826 × the median absolute deviation of the window
