@@ -21,7 +21,7 @@ double median(std::vector<double> x) {
   return x[h];
 }
 
-/// One window of the means: samples [first, last) of the run, its mean over the valid ones.
+/// One window of the means: samples [first, last) of the run, its mean over the judged ones.
 struct Window {
   std::size_t first = 0, last = 0;
   double mean = kNaN;  ///< NaN: fewer than half its samples judged
@@ -131,12 +131,13 @@ std::vector<double> without_periodic_part(const std::vector<double>& t, const st
 
 /// `n` less its part that is a function of `x` (header, "What the position explains"): the
 /// median over the passes through each of kPositionBins bins of x's range (over `use`; a pass
-/// ends when x has been out of the bin for more than gap_s) of the passes' means of n, where a bin has kMinPositionPasses passes or more; the samples of the
-/// other bins (and outside the range) are cleared in `located` (not located: a torque of position
-/// there cannot be told from one of time). `n` itself when x is empty or its range is 0.
+/// ends when x has been out of the bin for more than gap_s) of the passes' means of n, where a
+/// bin has kMinPositionPasses passes or more; the samples of the other bins (and outside the
+/// range) are cleared in `judged` (a torque of position there cannot be told from one of time).
+/// `n` itself when x is empty or its range is 0.
 std::vector<double> without_position_part(const std::vector<double>& t, const std::vector<double>& x,
                                           const std::vector<double>& n, const std::vector<bool>& use,
-                                          double gap_s, std::vector<bool>& located) {
+                                          double gap_s, std::vector<bool>& judged) {
   if (x.empty()) return n;
   double lo = std::numeric_limits<double>::infinity(), hi = -lo;
   for (std::size_t k = 0; k < x.size(); ++k) {
@@ -169,7 +170,9 @@ std::vector<double> without_position_part(const std::vector<double>& t, const st
   }
   std::vector<double> med(bins, kNaN);
   for (std::size_t b = 0; b < bins; ++b) {
-    if (pass_means[b].size() >= DisturbanceOptions::kMinPositionPasses) med[b] = median(pass_means[b]);
+    if (pass_means[b].size() >= DisturbanceOptions::kMinPositionPasses) {
+      med[b] = median(pass_means[b]);
+    }
   }
   std::vector<double> out(n);
   for (std::size_t k = 0; k < x.size(); ++k) {
@@ -177,7 +180,7 @@ std::vector<double> without_position_part(const std::vector<double>& t, const st
     if (b < bins && std::isfinite(med[b])) {
       out[k] -= med[b];
     } else {
-      located[k] = false;
+      judged[k] = false;
     }
   }
   return out;
@@ -270,10 +273,11 @@ DisturbanceEstimate locate_disturbance(const std::vector<double>& t, const std::
   const double bin_s = o.window_s / 5.0;
   // The state's part, then (where it narrows the spread) the position's, then the reference's
   // (header comment). `located`: the samples judged (those of positions not repeated left out).
-  const auto remainder = [&](const std::vector<bool>& use, bool with_position, std::vector<bool>& located) {
-    const std::vector<double> s = state_remainder(n, use, basis);
-    return without_periodic_part(t, with_position ? without_position_part(t, position, s, use, 0.5 * o.window_s, located) : s,
-                                 use, o.reference_period_s, bin_s);
+  const auto remainder = [&](const std::vector<bool>& use, bool with_position,
+                             std::vector<bool>& judged) {
+    std::vector<double> r = state_remainder(n, use, basis);
+    if (with_position) r = without_position_part(t, position, r, use, 0.5 * o.window_s, judged);
+    return without_periodic_part(t, r, use, o.reference_period_s, bin_s);
   };
   std::vector<bool> located = valid;
   DisturbanceEstimate d = locate_once(t, remainder(valid, false, located), valid, located, o);

@@ -265,7 +265,8 @@ TEST(LocateDisturbance, LocatesWholeAPulseThatPushesTheJointWhereItHasNotBeen) {
     const double tk = 1e-3 * k;
     const double amplitude = 0.1 + 0.02 * std::sin(kTwoPi * 0.37 * tk);
     const bool on = tk >= start && tk < start + 0.1;
-    const double x = amplitude * std::sin(kTwoPi * 2.0 * tk) + (on ? 0.05 * std::sin(kTwoPi * 5.0 * (tk - start)) : 0.0);
+    const double push = on ? 0.05 * std::sin(kTwoPi * 5.0 * (tk - start)) : 0.0;
+    const double x = amplitude * std::sin(kTwoPi * 2.0 * tk) + push;
     t.push_back(tk);
     theta.push_back(x);
     n.push_back(0.02 * std::sin(kTwoPi * x / 0.02 + 0.5) + (on ? level : 0.0) + noise(rng));
