@@ -133,11 +133,11 @@ std::vector<double> without_periodic_part(const std::vector<double>& t, const st
 /// median over the passes through each of kPositionBins bins of x's range (over `use`; a pass
 /// ends when x has been out of the bin for more than gap_s) of the passes' means of n, where a
 /// bin has kMinPositionPasses passes or more; the samples of the other bins (and outside the
-/// range) are cleared in `judged` (a torque of position there cannot be told from one of time).
-/// `n` itself when x is empty or its range is 0.
+/// range) are cleared in `*judged` when given (a torque of position there cannot be told from
+/// one of time). `n` itself when x is empty or its range is 0.
 std::vector<double> without_position_part(const std::vector<double>& t, const std::vector<double>& x,
                                           const std::vector<double>& n, const std::vector<bool>& use,
-                                          double gap_s, std::vector<bool>& judged) {
+                                          double gap_s, std::vector<bool>* judged) {
   if (x.empty()) return n;
   double lo = std::numeric_limits<double>::infinity(), hi = -lo;
   for (std::size_t k = 0; k < x.size(); ++k) {
@@ -164,23 +164,20 @@ std::vector<double> without_position_part(const std::vector<double>& t, const st
     if (p.empty() || t[k] - p.back().last_s > gap_s) p.emplace_back();
     p.back().sum += n[k], ++p.back().m, p.back().last_s = t[k];
   }
-  std::vector<std::vector<double>> pass_means(bins);
-  for (std::size_t b = 0; b < bins; ++b) {
-    for (const Pass& p : passes[b]) pass_means[b].push_back(p.sum / static_cast<double>(p.m));
-  }
   std::vector<double> med(bins, kNaN);
   for (std::size_t b = 0; b < bins; ++b) {
-    if (pass_means[b].size() >= DisturbanceOptions::kMinPositionPasses) {
-      med[b] = median(pass_means[b]);
-    }
+    if (passes[b].size() < DisturbanceOptions::kMinPositionPasses) continue;
+    std::vector<double> means;
+    for (const Pass& p : passes[b]) means.push_back(p.sum / static_cast<double>(p.m));
+    med[b] = median(std::move(means));
   }
   std::vector<double> out(n);
   for (std::size_t k = 0; k < x.size(); ++k) {
     const std::size_t b = bin_of(x[k]);
     if (b < bins && std::isfinite(med[b])) {
       out[k] -= med[b];
-    } else {
-      judged[k] = false;
+    } else if (judged != nullptr) {
+      (*judged)[k] = false;
     }
   }
   return out;
@@ -273,18 +270,17 @@ DisturbanceEstimate locate_disturbance(const std::vector<double>& t, const std::
   const double bin_s = o.window_s / 5.0;
   // The state's part, then (where it narrows the spread) the position's, then the reference's
   // (header comment). `located`: the samples judged (those of positions not repeated left out).
-  const auto remainder = [&](const std::vector<bool>& use, bool with_position,
-                             std::vector<bool>& judged) {
-    std::vector<double> r = state_remainder(n, use, basis);
-    if (with_position) r = without_position_part(t, position, r, use, 0.5 * o.window_s, judged);
-    return without_periodic_part(t, r, use, o.reference_period_s, bin_s);
-  };
+  const double gap_s = 0.5 * o.window_s;
+  const std::vector<double> state_rest = state_remainder(n, valid, basis);
   std::vector<bool> located = valid;
-  DisturbanceEstimate d = locate_once(t, remainder(valid, false, located), valid, located, o);
+  DisturbanceEstimate d = locate_once(
+      t, without_periodic_part(t, state_rest, valid, o.reference_period_s, bin_s), valid, located, o);
   bool with_position = false;
   if (!position.empty()) {
     std::vector<bool> located_p = valid;
-    const std::vector<double> r = remainder(valid, true, located_p);
+    const std::vector<double> r = without_periodic_part(
+        t, without_position_part(t, position, state_rest, valid, gap_s, &located_p), valid,
+        o.reference_period_s, bin_s);
     const auto count = [](const std::vector<bool>& f) {
       return static_cast<double>(std::count(f.begin(), f.end(), true));
     };
@@ -306,8 +302,10 @@ DisturbanceEstimate locate_disturbance(const std::vector<double>& t, const std::
   // samples (the pulses do not bend it), on the samples judged the first time.
   std::vector<bool> use = valid;
   for (std::size_t k = 0; k < t.size(); ++k) use[k] = use[k] && d.d_v[k] == 0.0;
-  std::vector<bool> unused = valid;
-  DisturbanceEstimate again = locate_once(t, remainder(use, with_position, unused), valid, located, o);
+  std::vector<double> rest = state_remainder(n, use, basis);
+  if (with_position) rest = without_position_part(t, position, rest, use, gap_s, nullptr);
+  DisturbanceEstimate again = locate_once(
+      t, without_periodic_part(t, rest, use, o.reference_period_s, bin_s), valid, located, o);
   again.position_part_removed = with_position;
   set_aside_half_period_pairs(t, o.reference_period_s, again);
   return again;
