@@ -549,29 +549,52 @@ std::vector<double> breakpoints_of(const AlphaModel& a) {
 }
 
 /// The new effect's parameters searched with the α-model re-identified at every value (unit
-/// coefficient factors).
+/// coefficient factors): one effect's block, or two effects' searched jointly (the pair fallback's
+/// afresh screen, search_pair_afresh()), x their coordinates in order.
 struct EffectSearch {
   const std::vector<DiagnoseRun>* runs = nullptr;
   const std::vector<std::size_t>* fit_runs = nullptr;
   const Reidentifier* reid = nullptr;
   const DiagnoseOptions* opt = nullptr;
-  const ParamBlock* block = nullptr;
+  /// The blocks searched; each one's from_search sets its parameters from search coordinates
+  /// other than the parameters themselves (EffectSpec::from_search, e.g. gravity as a spring and
+  /// an offset), nullptr: x are the parameters.
+  struct Searched {
+    const ParamBlock* block = nullptr;
+    void (*from_search)(const double* x, Effects& e) = nullptr;
+  };
+  std::vector<Searched> blocks;
   Effects base;
   ModelScales unit;  ///< factors 1, shaped like the model's
-  /// Sets the parameters from search coordinates other than the parameters themselves
-  /// (EffectSpec::from_search, e.g. gravity as a spring and an offset); nullptr: x are the
-  /// parameters.
-  void (*from_search)(const double* x, Effects& e) = nullptr;
   double best_rms = kInf;
   Effects best;
 
-  /// Pooled RMS over the fit runs of the model with the block's parameters x.
+  /// The number of search coordinates.
+  std::size_t size() const {
+    std::size_t n = 0;
+    for (const Searched& b : blocks) n += b.block->params.size();
+    return n;
+  }
+  /// The blocks' bounds, in the order of x.
+  void bounds(std::vector<double>& lower, std::vector<double>& upper) const {
+    lower.clear();
+    upper.clear();
+    for (const Searched& b : blocks) {
+      lower.insert(lower.end(), b.block->lower.begin(), b.block->lower.end());
+      upper.insert(upper.end(), b.block->upper.begin(), b.block->upper.end());
+    }
+  }
+
+  /// Pooled RMS over the fit runs of the model with the blocks' coordinates x.
   double evaluate(const double* x) {
     Effects e = base;
-    if (from_search != nullptr) {
-      from_search(x, e);
-    } else {
-      for (std::size_t j = 0; j < block->params.size(); ++j) e.*(block->params[j].member) = x[j];
+    for (const Searched& b : blocks) {
+      if (b.from_search != nullptr) {
+        b.from_search(x, e);
+      } else {
+        for (std::size_t j = 0; j < b.block->params.size(); ++j) e.*(b.block->params[j].member) = x[j];
+      }
+      x += b.block->params.size();
     }
     const std::optional<AlphaModel> alpha = reid->fit(e);
     if (!alpha) return 1e30;
@@ -585,6 +608,19 @@ struct EffectSearch {
   }
 };
 
+/// An EffectSearch over the prepared fit runs from `base`, at unit coefficient factors.
+EffectSearch effect_search(const PreparedRuns& prepared, const Reidentifier& reid,
+                           const DiagnoseOptions& opt, const Effects& base) {
+  EffectSearch s;
+  s.runs = &prepared.runs;
+  s.fit_runs = &prepared.fit_runs;
+  s.reid = &reid;
+  s.opt = &opt;
+  s.base = base;
+  s.unit = prepared.unit_scales;
+  return s;
+}
+
 double effect_search_objective(unsigned n, const double* x, double* grad, void* data) {
   (void)n;
   (void)grad;
@@ -596,14 +632,16 @@ double effect_search_objective(unsigned n, const double* x, double* grad, void* 
 /// The first simplex step of each parameter is `step`.
 void search_effect(EffectSearch& s, const std::vector<std::vector<double>>& starts,
                    const std::vector<double>& step, int max_evaluations) {
-  const unsigned nx = static_cast<unsigned>(s.block->params.size());
+  const unsigned nx = static_cast<unsigned>(s.size());
   if (nx == 0) return;
+  std::vector<double> lower, upper;
+  s.bounds(lower, upper);
   for (const auto& x0 : starts) {
     std::vector<double> x = x0;
-    for (unsigned j = 0; j < nx; ++j) x[j] = std::clamp(x[j], s.block->lower[j], s.block->upper[j]);
+    for (unsigned j = 0; j < nx; ++j) x[j] = std::clamp(x[j], lower[j], upper[j]);
     nlopt_opt o = nlopt_create(NLOPT_LN_NELDERMEAD, nx);
     if (o == nullptr) return;
-    std::vector<double> lb = s.block->lower, ub = s.block->upper;
+    std::vector<double> lb = lower, ub = upper;
     for (unsigned j = 0; j < nx; ++j) {  // NLopt wants finite bounds for the simplex steps
       if (!std::isfinite(lb[j])) lb[j] = -HUGE_VAL;
       if (!std::isfinite(ub[j])) ub[j] = HUGE_VAL;
@@ -651,42 +689,99 @@ std::optional<AlphaModel> best_variant(const Reidentifier& reid, const Effects& 
   return best;
 }
 
+/// One effect's search with re-identification set up: its block in search coordinates
+/// (EffectSpec::to_search), the coarse scan's points clamped to the bounds, the Nelder-Mead steps.
+struct SearchSetup {
+  ParamBlock block;
+  void (*from_search)(const double* x, Effects& e) = nullptr;
+  std::vector<std::vector<double>> grid;
+  std::vector<double> step;
+  double step_of_chosen_start = 0.0;  ///< EffectSpec::step_of_chosen_start
+};
+
+SearchSetup search_setup(EffectKind kind, const Effects& e, const DataScales& sc) {
+  const EffectSpec& spec = effect_spec(kind);
+  const EffectScales scales = sc.effect();
+  SearchSetup out;
+  out.block = param_block(kind, e, sc);
+  ParamBlock& block = out.block;
+  if (spec.to_search != nullptr) {  // searched in other coordinates (EffectSpec::to_search)
+    spec.to_search(scales, block.start, block.lower, block.upper);
+    out.from_search = spec.from_search;
+  }
+  for (std::size_t j = 0; j < block.params.size(); ++j)
+    out.step.push_back(block.params[j].search_step(scales, block.start[j], block.start));
+  out.grid = spec.search_grid(scales, block.start);
+  for (auto& point : out.grid) {  // a point that sets the first parameters only: the rest at the start
+    for (std::size_t j = point.size(); j < block.params.size(); ++j) point.push_back(block.start[j]);
+    point.resize(block.params.size());
+    for (std::size_t j = 0; j < point.size(); ++j) point[j] = std::clamp(point[j], block.lower[j], block.upper[j]);
+  }
+  out.step_of_chosen_start = spec.step_of_chosen_start;
+  return out;
+}
+
 /// The search of a new effect of `kind` with re-identification (EffectSearch; `s` has all but the
 /// block set): a coarse scan of the effect's main parameter on a grid scaled by the data (largest
 /// command v_max, gain kp), with the equation-error start `e` among the points, then Nelder-Mead
 /// from the best point (and the second best when nearly as good). Returns false when no evaluation succeeded.
 bool search_reidentified(EffectKind kind, const Effects& e, const DataScales& sc, EffectSearch& s) {
-  const EffectSpec& spec = effect_spec(kind);
-  const EffectScales scales = sc.effect();
-  ParamBlock block = param_block(kind, e, sc);
-  if (spec.to_search != nullptr) {  // searched in other coordinates (EffectSpec::to_search)
-    spec.to_search(scales, block.start, block.lower, block.upper);
-    s.from_search = spec.from_search;
-  }
-  s.block = &block;
-  std::vector<double> step;
-  for (std::size_t j = 0; j < block.params.size(); ++j)
-    step.push_back(block.params[j].search_step(scales, block.start[j], block.start));
-  std::vector<std::vector<double>> grid = spec.search_grid(scales, block.start);
+  SearchSetup set = search_setup(kind, e, sc);
+  s.blocks = {{&set.block, set.from_search}};
   std::vector<std::pair<double, std::size_t>> scored;
-  for (std::size_t g = 0; g < grid.size(); ++g) {
-    for (std::size_t j = 0; j < grid[g].size(); ++j)
-      grid[g][j] = std::clamp(grid[g][j], block.lower[j], block.upper[j]);
-    scored.push_back({s.evaluate(grid[g].data()), g});
-  }
+  for (std::size_t g = 0; g < set.grid.size(); ++g) scored.push_back({s.evaluate(set.grid[g].data()), g});
   std::sort(scored.begin(), scored.end());
   // Nelder-Mead from the best point, and from the second best when it is nearly as good (a
   // second valley).
   std::vector<std::vector<double>> starts;
   for (std::size_t k = 0; k < std::min<std::size_t>(2, scored.size()); ++k) {
     if (scored[k].first < 1e29 && (k == 0 || scored[k].first <= 1.2 * scored[0].first))
-      starts.push_back(grid[scored[k].second]);
+      starts.push_back(set.grid[scored[k].second]);
   }
   // Steps no larger than the grid's spacing near the start.
-  if (spec.step_of_chosen_start > 0.0 && !starts.empty())
-    step[0] = spec.step_of_chosen_start * starts.front()[0];
-  search_effect(s, starts, step, 6 + 6 * static_cast<int>(block.params.size()));
-  s.block = nullptr;
+  if (set.step_of_chosen_start > 0.0 && !starts.empty())
+    set.step[0] = set.step_of_chosen_start * starts.front()[0];
+  search_effect(s, starts, set.step, 6 + 6 * static_cast<int>(set.block.params.size()));
+  s.blocks.clear();
+  return std::isfinite(s.best_rms);
+}
+
+/// Two effects searched together from nothing (`s.base` without either): every point of the
+/// product of their scans (search_setup()), the α-model re-identified at each, then Nelder-Mead
+/// on both blocks from the best point. Two effects that mask each other can each fit worse than
+/// `none` alone and each at a wrong value (a gravity spring of the wrong sign beside a 4 ms delay),
+/// so the search of one with the other's single fit held (choose_pairs()' pool) starts in the
+/// wrong valley. Returns false when no evaluation succeeded.
+bool search_pair_afresh(EffectKind a, EffectKind b, const DataScales& sc, EffectSearch& s) {
+  std::array<SearchSetup, 2> set = {search_setup(a, s.base, sc), search_setup(b, s.base, sc)};
+  s.blocks = {{&set[0].block, set[0].from_search}, {&set[1].block, set[1].from_search}};
+  double best = kInf;
+  std::vector<double> best_x;
+  for (const auto& xa : set[0].grid) {
+    for (const auto& xb : set[1].grid) {
+      std::vector<double> x = xa;
+      x.insert(x.end(), xb.begin(), xb.end());
+      const double r = s.evaluate(x.data());
+      if (r < best) {
+        best = r;
+        best_x = std::move(x);
+      }
+    }
+  }
+  if (best_x.empty() || !(best < 1e29)) {
+    s.blocks.clear();
+    return false;
+  }
+  std::vector<double> step = set[0].step;
+  step.insert(step.end(), set[1].step.begin(), set[1].step.end());
+  const std::size_t na = set[0].block.params.size();
+  for (std::size_t m = 0; m < 2; ++m) {  // steps no larger than the grid's spacing near the start
+    const std::size_t j = m == 0 ? 0 : na;
+    const double chosen = set[m].step_of_chosen_start * std::abs(best_x[j]);
+    if (chosen > 0.0) step[j] = chosen;
+  }
+  search_effect(s, {best_x}, step, 6 + 6 * static_cast<int>(step.size()));
+  s.blocks.clear();
   return std::isfinite(s.best_rms);
 }
 
@@ -1022,13 +1117,7 @@ CandidateSearch search_candidate(EffectKind kind, const PreparedRuns& prepared,
     out.start_scales = prepared.unit_scales;
   }
   if (kind != EffectKind::kNone && reid.usable()) {
-    EffectSearch search;
-    search.runs = &runs;
-    search.fit_runs = &fit_runs;
-    search.reid = &reid;
-    search.opt = &opt;
-    search.base = model.effects;
-    search.unit = prepared.unit_scales;
+    EffectSearch search = effect_search(prepared, reid, opt, model.effects);
     if (search_reidentified(kind, e, sc, search)) {
       out.searched = true;
       out.effects = search.best;
@@ -1849,12 +1938,26 @@ KeptAloneVerdict judge_kept_alone(double error_after, const DiagnoseRound& rd, d
   return v;
 }
 
-bool pair_eligible(const CandidateScore& c, const RoundModel& model) {
-  if (!c.ok || !c.inactive.empty() || c.effect == EffectKind::kNone) return false;
-  const EffectSpec& spec = effect_spec(c.effect);
+namespace {
+
+/// An effect of the catalogue searched in the rounds (not `none`, not a refinement tried only
+/// after its parent, not a torque of time) and not already in the model.
+bool may_pair(EffectKind kind, const RoundModel& model) {
+  if (kind == EffectKind::kNone) return false;
+  const EffectSpec& spec = effect_spec(kind);
   if (!spec.candidate || spec.role == EffectRole::kTimeSeries || spec.refines != EffectKind::kNone)
     return false;
-  return std::find(model.named.begin(), model.named.end(), c.effect) == model.named.end();
+  return std::find(model.named.begin(), model.named.end(), kind) == model.named.end();
+}
+
+}  // namespace
+
+bool pair_eligible(const CandidateScore& c, const RoundModel& model) {
+  return c.ok && c.inactive.empty() && may_pair(c.effect, model);
+}
+
+bool pair_afresh_kind(EffectKind kind, const RoundModel& model) {
+  return may_pair(kind, model) && effect_spec(kind).search_grid != nullptr;
 }
 
 namespace {
@@ -1914,13 +2017,8 @@ std::vector<PairStart> choose_pairs(const CandidateFitter& fitter, const Reident
       ps.effects = pair_start(model.effects, first, second);
       ps.alpha = model.alpha;
       if (reid.usable()) {
-        EffectSearch search;
-        search.runs = &prepared.runs;
-        search.fit_runs = &prepared.fit_runs;
-        search.reid = &reid;
-        search.opt = &opt;
-        search.base = pair_start(model.effects, first, first);
-        search.unit = prepared.unit_scales;
+        EffectSearch search =
+            effect_search(prepared, reid, opt, pair_start(model.effects, first, first));
         if (!search_reidentified(second.effect, ps.effects, prepared.scales, search)) continue;
         ps.effects = search.best;
         ps.screen_rms = search.best_rms;
@@ -1933,6 +2031,44 @@ std::vector<PairStart> choose_pairs(const CandidateFitter& fitter, const Reident
       if (std::isfinite(ps.screen_rms)) screened.push_back(std::move(ps));
     }
   }
+  if (reid.usable()) {
+    // Afresh: every pair of the round's scanned effects (those whose search scans three values
+    // or more) searched together from nothing, each candidate's single fit set aside.
+    std::vector<std::size_t> scanned;
+    for (std::size_t k = 0; k < rd.candidates.size(); ++k) {
+      const CandidateScore& c = rd.candidates[k];
+      if (pair_afresh_kind(c.effect, model) &&
+          search_setup(c.effect, model.effects, prepared.scales).grid.size() >= 3)
+        scanned.push_back(k);
+    }
+    const auto single_score = [&](std::size_t k) {
+      const double x = rd.candidates[k].score;
+      return std::isfinite(x) ? x : kInf;
+    };
+    for (std::size_t i = 0; i < scanned.size(); ++i) {
+      for (std::size_t j = i + 1; j < scanned.size(); ++j) {
+        const bool i_first = single_score(scanned[i]) <= single_score(scanned[j]);
+        PairStart ps;
+        ps.at = {i_first ? scanned[i] : scanned[j], i_first ? scanned[j] : scanned[i]};
+        EffectSearch search = effect_search(prepared, reid, opt, model.effects);
+        if (!search_pair_afresh(rd.candidates[ps.at[0]].effect, rd.candidates[ps.at[1]].effect,
+                                prepared.scales, search))
+          continue;
+        ps.effects = search.best;
+        ps.screen_rms = search.best_rms;
+        ps.afresh = true;
+        // The same pair from the pool: the lower screen kept.
+        const auto same = std::find_if(screened.begin(), screened.end(), [&](const PairStart& q) {
+          return (q.at[0] == ps.at[0] && q.at[1] == ps.at[1]) || (q.at[0] == ps.at[1] && q.at[1] == ps.at[0]);
+        });
+        if (same == screened.end()) {
+          screened.push_back(std::move(ps));
+        } else if (ps.screen_rms < same->screen_rms) {
+          *same = std::move(ps);
+        }
+      }
+    }
+  }
   std::stable_sort(screened.begin(), screened.end(), [](const PairStart& x, const PairStart& y) {
     return x.screen_rms < y.screen_rms;
   });
@@ -1941,13 +2077,7 @@ std::vector<PairStart> choose_pairs(const CandidateFitter& fitter, const Reident
     for (PairStart& ps : screened) {
       // The first's parameters searched again with the second's found ones (its own fit was
       // made without them too), then the breakpoint set that predicts the fit runs best.
-      EffectSearch search;
-      search.runs = &prepared.runs;
-      search.fit_runs = &prepared.fit_runs;
-      search.reid = &reid;
-      search.opt = &opt;
-      search.base = ps.effects;
-      search.unit = prepared.unit_scales;
+      EffectSearch search = effect_search(prepared, reid, opt, ps.effects);
       if (search_reidentified(rd.candidates[ps.at[0]].effect, ps.effects, prepared.scales, search) &&
           search.best_rms < ps.screen_rms) {
         ps.effects = search.best;
@@ -1991,6 +2121,7 @@ std::optional<std::size_t> try_pairs(const CandidateFitter& fitter, const Reiden
   for (const PairStart& start : choose_pairs(fitter, reid, rd)) {
     PairScore ps;
     ps.kinds = {rd.candidates[start.at[0]].effect, rd.candidates[start.at[1]].effect};
+    ps.afresh = start.afresh;
     ps.fit = fitter.fit_joint({ps.kinds[0], ps.kinds[1]}, start.effects,
                               reid.usable() ? prepared.unit_scales : model.scales, start.alpha, true,
                               true, nullptr);

@@ -309,7 +309,8 @@ std::string diagnose_report_markdown(const DiagnoseResult& r, const std::vector<
       const std::string label = pair_label(p);
       s << "| " << (p.named ? "**" + label + "**" : label) << " | " << fmt(p.fit.score) << " | "
         << fmt(p.fit.fold_scores[0]) << " | " << fmt(p.fit.fold_scores[1]) << " | "
-        << fmt(p.fit.error_after) << " | " << pair_parameters_text(p) << " | " << p.fit.full_message()
+        << fmt(p.fit.error_after) << " | " << pair_parameters_text(p) << " | "
+        << (p.afresh ? "started from both searched together from nothing; " : "") << p.fit.full_message()
         << " |\n";
       if (p.none_at_breakpoints) {
         const CandidateScore& t = *p.none_at_breakpoints;
@@ -319,9 +320,13 @@ std::string diagnose_report_markdown(const DiagnoseResult& r, const std::vector<
       }
     }
     if (!rd.pairs.empty()) {
-      s << "\nNo single effect was named while structure remained, so pairs of the best candidates "
-           "were fitted jointly (two effects can mask each other); a pair is named when it passes "
-           "the tests of a single effect.\n";
+      s << "\nNo single effect was named while structure remained, so pairs of candidates were "
+           "fitted jointly (two effects can mask each other): pairs of the best candidates, the "
+           "second searched with the first's fit, and every pair of the scanned effects searched "
+           "together from nothing (a product of their scans); the "
+        << diagnose_detail::kMaxPairFits
+        << " of lowest search RMS were fitted, and a pair is named when it passes the tests of a "
+           "single effect.\n";
     }
     if (rd.none_refitted) {
       s << "\nNothing was named, but the model's own refitted (" << rd.none_refit_how

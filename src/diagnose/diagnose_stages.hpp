@@ -515,6 +515,11 @@ inline constexpr std::size_t kMaxPairFits = 3;
 /// refinement tried only after its parent, not a torque of time) and not already in the model.
 bool pair_eligible(const CandidateScore& c, const RoundModel& model);
 
+/// Whether an effect of `kind` may be one of a pair searched afresh (choose_pairs()): an effect
+/// of the catalogue searched in the rounds with a scan (EffectSpec::search_grid), not `none`, not
+/// a refinement, not a torque of time, not already in the model; whatever its single fit gave.
+bool pair_afresh_kind(EffectKind kind, const RoundModel& model);
+
 /// Candidates of each ranking in the pair fallback's pool (choose_pairs()).
 inline constexpr std::size_t kPairPoolEach = 3;
 
@@ -527,6 +532,8 @@ struct PairStart {
   /// The start's pooled RMS over the fit runs (unit factors, the α-model re-identified with
   /// both) [position unit]
   double screen_rms = std::numeric_limits<double>::quiet_NaN();
+  /// Found by the search of both from nothing (search_pair_afresh()), not from the pool.
+  bool afresh = false;
 };
 
 /// The pairs try_pairs() fits. The pool: the eligible candidates of the round (pair_eligible())
@@ -535,9 +542,14 @@ struct PairStart {
 /// candidate's (search_candidate(): a scan and Nelder-Mead, the α-model re-identified at every
 /// trial) with the first's fitted ones in the model, since a masked effect's own fit is made
 /// without its partner (without re-identification: both fitted sets together, simulated). The
+/// With re-identification, every pair of the round's kinds pair_afresh_kind() admits whose scan has
+/// three points or more is also searched afresh, both from nothing (search_pair_afresh(): the
+/// product of their scans, then Nelder-Mead on both; PairStart::afresh), whatever their single
+/// fits gave; a pair found both ways keeps the lower search RMS. The
 /// kMaxPairFits pairs of the lowest search RMS are returned, the first's parameters searched
 /// again with the second's found ones (kept when the RMS drops), each with the breakpoint set
-/// that predicts the fit runs best. Empty with fewer than two eligible candidates.
+/// that predicts the fit runs best. Empty with fewer than two eligible candidates and no pair
+/// searched afresh.
 std::vector<PairStart> choose_pairs(const CandidateFitter& fitter, const Reidentifier& reid,
                                     const DiagnoseRound& rd);
 

@@ -823,15 +823,18 @@ TEST(DiagnoseStages, PairFallbackNamesNoPairOnEffectFreeData) {
   EXPECT_EQ(rd.named, EffectKind::kNone);
   EXPECT_EQ(rd.named_second, EffectKind::kNone);
   EXPECT_DOUBLE_EQ(rd.error_after, rd.error_before);  // the model is left as it was
-  // Tried whenever two candidates can be paired (fitted, active: on effect-free data the
-  // fitted levels are often below kInactiveRelativeLevel and set aside).
-  std::size_t eligible = 0;
+  // Tried whenever two candidates can be paired from the pool (fitted, active: on effect-free
+  // data the fitted levels are often below kInactiveRelativeLevel and set aside) or two scanned
+  // effects searched together from nothing: gravity, the delay and the deadzone here, whatever
+  // their single fits gave (the offset's scan has two points).
   std::string table;
+  std::size_t afresh_kinds = 0;
   for (const CandidateScore& c : rd.candidates) {
-    eligible += pair_eligible(c, model) && !delay_below_one_tick(c, opt.simulation);
+    afresh_kinds += pair_afresh_kind(c.effect, model) && c.effect != EffectKind::kOffsetTorque;
     table += std::string(effect_name(c.effect)) + ": " + c.message + "\n";
   }
-  EXPECT_EQ(rd.pairs.empty(), eligible < 2) << table;
+  EXPECT_EQ(afresh_kinds, 3u) << table;
+  EXPECT_FALSE(rd.pairs.empty()) << table;
   EXPECT_LE(rd.pairs.size(), kMaxPairFits);
   for (const PairScore& p : rd.pairs) {
     EXPECT_FALSE(p.named);

@@ -197,6 +197,10 @@ struct PairScore {
   /// A member that added nothing over all runs when the pair was named: the other was named
   /// alone (`fit` is then its settled fit); kNone when both were named.
   EffectKind dropped = EffectKind::kNone;
+  /// Its start was found by searching both effects together from nothing (a product of their
+  /// scans, then Nelder-Mead on both), not from either one's single fit: two effects that mask
+  /// each other can each fit alone at a wrong value.
+  bool afresh = false;
 };
 
 /// One round.
