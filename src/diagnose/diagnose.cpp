@@ -746,19 +746,18 @@ bool search_reidentified(EffectKind kind, const Effects& e, const DataScales& sc
   return std::isfinite(s.best_rms);
 }
 
-/// Two effects searched together from nothing (`s.base` without either): every point of the
-/// product of their scans (search_setup()), the α-model re-identified at each, then Nelder-Mead
-/// on both blocks from the best point. Two effects that mask each other can each fit worse than
+/// Two effects searched together from nothing (`s.base` without either; `a` and `b` their
+/// search_setup() from it): every point of the product of their scans, the α-model re-identified
+/// at each, then Nelder-Mead on both blocks from the best point. Two effects that mask each other can each fit worse than
 /// `none` alone and each at a wrong value (a gravity spring of the wrong sign beside a 4 ms delay),
 /// so the search of one with the other's single fit held (choose_pairs()' pool) starts in the
 /// wrong valley. Returns false when no evaluation succeeded.
-bool search_pair_afresh(EffectKind a, EffectKind b, const DataScales& sc, EffectSearch& s) {
-  std::array<SearchSetup, 2> set = {search_setup(a, s.base, sc), search_setup(b, s.base, sc)};
-  s.blocks = {{&set[0].block, set[0].from_search}, {&set[1].block, set[1].from_search}};
+bool search_pair_afresh(const SearchSetup& a, const SearchSetup& b, EffectSearch& s) {
+  s.blocks = {{&a.block, a.from_search}, {&b.block, b.from_search}};
   double best = kInf;
   std::vector<double> best_x;
-  for (const auto& xa : set[0].grid) {
-    for (const auto& xb : set[1].grid) {
+  for (const auto& xa : a.grid) {
+    for (const auto& xb : b.grid) {
       std::vector<double> x = xa;
       x.insert(x.end(), xb.begin(), xb.end());
       const double r = s.evaluate(x.data());
@@ -772,12 +771,12 @@ bool search_pair_afresh(EffectKind a, EffectKind b, const DataScales& sc, Effect
     s.blocks.clear();
     return false;
   }
-  std::vector<double> step = set[0].step;
-  step.insert(step.end(), set[1].step.begin(), set[1].step.end());
-  const std::size_t na = set[0].block.params.size();
-  for (std::size_t m = 0; m < 2; ++m) {  // steps no larger than the grid's spacing near the start
-    const std::size_t j = m == 0 ? 0 : na;
-    const double chosen = set[m].step_of_chosen_start * std::abs(best_x[j]);
+  std::vector<double> step = a.step;
+  step.insert(step.end(), b.step.begin(), b.step.end());
+  const std::size_t na = a.block.params.size();
+  for (const auto& [set, j] : {std::pair{&a, std::size_t{0}}, std::pair{&b, na}}) {
+    // steps no larger than the grid's spacing near the start
+    const double chosen = set->step_of_chosen_start * std::abs(best_x[j]);
     if (chosen > 0.0) step[j] = chosen;
   }
   search_effect(s, {best_x}, step, 6 + 6 * static_cast<int>(step.size()));
@@ -2035,11 +2034,14 @@ std::vector<PairStart> choose_pairs(const CandidateFitter& fitter, const Reident
     // Afresh: every pair of the round's scanned effects (those whose search scans three values
     // or more) searched together from nothing, each candidate's single fit set aside.
     std::vector<std::size_t> scanned;
+    std::vector<SearchSetup> setups;  // each scanned candidate's, from the model's effects
     for (std::size_t k = 0; k < rd.candidates.size(); ++k) {
       const CandidateScore& c = rd.candidates[k];
-      if (pair_afresh_kind(c.effect, model) &&
-          search_setup(c.effect, model.effects, prepared.scales).grid.size() >= 3)
-        scanned.push_back(k);
+      if (!pair_afresh_kind(c.effect, model)) continue;
+      SearchSetup set = search_setup(c.effect, model.effects, prepared.scales);
+      if (set.grid.size() < 3) continue;
+      scanned.push_back(k);
+      setups.push_back(std::move(set));
     }
     const auto single_score = [&](std::size_t k) {
       const double x = rd.candidates[k].score;
@@ -2051,9 +2053,7 @@ std::vector<PairStart> choose_pairs(const CandidateFitter& fitter, const Reident
         PairStart ps;
         ps.at = {i_first ? scanned[i] : scanned[j], i_first ? scanned[j] : scanned[i]};
         EffectSearch search = effect_search(prepared, reid, opt, model.effects);
-        if (!search_pair_afresh(rd.candidates[ps.at[0]].effect, rd.candidates[ps.at[1]].effect,
-                                prepared.scales, search))
-          continue;
+        if (!search_pair_afresh(setups[i_first ? i : j], setups[i_first ? j : i], search)) continue;
         ps.effects = search.best;
         ps.screen_rms = search.best_rms;
         ps.afresh = true;

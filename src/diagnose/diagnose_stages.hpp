@@ -541,12 +541,11 @@ struct PairStart {
 /// all runs. Each pair of the pool is screened: the second's parameters searched like a single
 /// candidate's (search_candidate(): a scan and Nelder-Mead, the α-model re-identified at every
 /// trial) with the first's fitted ones in the model, since a masked effect's own fit is made
-/// without its partner (without re-identification: both fitted sets together, simulated). The
+/// without its partner (without re-identification: both fitted sets together, simulated).
 /// With re-identification, every pair of the round's kinds pair_afresh_kind() admits whose scan has
 /// three points or more is also searched afresh, both from nothing (search_pair_afresh(): the
 /// product of their scans, then Nelder-Mead on both; PairStart::afresh), whatever their single
-/// fits gave; a pair found both ways keeps the lower search RMS. The
-/// kMaxPairFits pairs of the lowest search RMS are returned, the first's parameters searched
+/// fits gave; a pair found both ways keeps the lower search RMS. The kMaxPairFits pairs of the lowest search RMS are returned, the first's parameters searched
 /// again with the second's found ones (kept when the RMS drops), each with the breakpoint set
 /// that predicts the fit runs best. Empty with fewer than two eligible candidates and no pair
 /// searched afresh.
