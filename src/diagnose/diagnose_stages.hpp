@@ -404,14 +404,19 @@ std::optional<EffectKind> take_in_parent(EffectKind kind, Effects& e,
 /// its named parent is (try_refinements()).
 bool is_sibling_form(EffectKind kind, EffectKind other);
 
+/// A generalisation's fit `c` has earned its extra parameters over `parent`, the effect it
+/// generalises (try_refinements()): beats() with significance/2, or beats_twin() with it (not
+/// worse in either fold, and below (1 − significance/2) × the parent's RMS over all runs).
+bool earns_its_place(const CandidateScore& c, const CandidateScore& parent, double significance);
+
 /// The position in `candidates` of the effect `kind` generalises (EffectSpec::generalises) that
 /// was fitted and cross-validated, the lowest scored when several; candidates.size() when none.
 std::size_t best_parent(EffectKind kind, const std::vector<CandidateScore>& candidates);
 
 /// Refinements: each candidate at `refinements` (a generalisation, EffectSpec::refines) is
 /// searched, fitted and cross-validated only when the effect it generalises was cross-validated
-/// (among the two lowest training RMS); it stays a contender only when it beats that one by
-/// (1 − significance/2) in its score and both folds (else it is marked not cross-validated).
+/// (among the two lowest training RMS); it stays a contender only when it earns its place over
+/// that one (earns_its_place()); else it is marked not cross-validated.
 /// With no such candidate, it is tried on top of the model when the effect it generalises or a
 /// sibling form (is_sibling_form()) was named in an earlier round, and must then beat `none`.
 void try_refinements(const CandidateFitter& fitter, const RoundStart& start,
