@@ -146,6 +146,33 @@ ExperimentPlanOptions one_pose(std::uint64_t seed) {
   return plan;
 }
 
+// A contender takes a named friction's place only when its memory terms carry at least half of
+// that friction (discover_term(), step 4). The numbers: a position-dependent friction of seed 44
+// (0.0231 V + 0.101 V/rad·θ, θ̇_rms 1.58 rad/s) whose place a term with a Dahl friction of 0.0042
+// V took (the rest velocity polynomials); the invented frictional lag of seed 32 (a lagged
+// friction of 0.0091 V for a named Coulomb friction of 0.0078 V).
+TEST(DiscoverTerm, ATermTakesAFrictionsPlaceOnlyWhenItsMemoryCarriesThatFriction) {
+  Effects posdep;
+  posdep.position_coulomb_v = 0.02314;
+  posdep.position_slope_v_per_rad = 0.1013;
+  posdep.position_smoothing_rad_s = 0.001578;
+  Effects term;
+  term.discovered_dahl_v = -0.004181;
+  EXPECT_FALSE(memory_carries_friction(posdep, Effects{}, term, 1.576));
+  term.discovered_lag_sign_v = -0.008;  // with a lagged friction as well: 0.0122 ≥ 0.0116
+  EXPECT_TRUE(memory_carries_friction(posdep, Effects{}, term, 1.576));
+  Effects coulomb;
+  coulomb.coulomb_v = 0.0078;
+  coulomb.coulomb_smoothing_rad_s = 0.0015;
+  Effects lagged;
+  lagged.discovered_lag_sign_v = -0.0091;
+  EXPECT_TRUE(memory_carries_friction(coulomb, Effects{}, lagged, 1.5));
+  lagged.discovered_lag_sign_v = 0.0091;  // pushing the joint along: not a friction
+  EXPECT_FALSE(memory_carries_friction(coulomb, Effects{}, lagged, 1.5));
+  lagged.discovered_lag_sign_v = -0.0035;  // 45 % of it
+  EXPECT_FALSE(memory_carries_friction(coulomb, Effects{}, lagged, 1.5));
+}
+
 TEST(DiscoverTerm, CarriesAFrictionNoNamedEffectWasAllowedToTake) {
   // Coulomb friction Fc = 0.008 hidden, only `none` allowed in the rounds: the discovered term
   // must take it (the invented effects are the figure's: scripts/invented_effects_figure.py).

@@ -102,6 +102,13 @@ SparseRegressionResult sparse_regression(
 /// The named forms of the library (kDiscoveredLibrary indices), for sparse_regression().
 std::vector<std::pair<std::string, std::vector<std::size_t>>> discovered_named_forms();
 
+/// Whether the memory terms of the discovered term in `term` (c_f of the lagged friction, c_z of
+/// the Dahl state; a friction's coefficient is negative) carry at least half the friction that
+/// `named` has beyond `without` (that friction taken out), compared at θ̇ = ±`theta_dot_rms`
+/// and θ = 0: a contender that takes a named friction's place must (discover_term(), step 4).
+bool memory_carries_friction(const Effects& named, const Effects& without, const Effects& term,
+                             double theta_dot_rms);
+
 /// The reading of a discovered term `e` (its non-zero coefficients and scales): the named
 /// effect it is, with its parameters, when a named form matches ("coulomb_friction: Fc = 0.004"),
 /// else what its terms are like; "nothing" when it is off.
