@@ -1467,7 +1467,7 @@ bool earns_its_place(const CandidateScore& c, const CandidateScore& parent, doub
   // runs, which the fit windows' folds do not all see (a Stribeck friction of seed 44, sliding
   // 0.019 V, breakaway 0.046 V: 8 % below Coulomb friction in its score, 13 % in fold 2, 4.7 %
   // in fold 1, 8 % over all runs). A generalisation that wins so is still settled against its
-  // parent before it is named (choose_winner()).
+  // parent before it is named (diagnose_round()).
   return beats_twin(c, parent, 0.5 * significance);
 }
 
