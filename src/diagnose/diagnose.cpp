@@ -2060,11 +2060,13 @@ std::vector<PairStart> choose_pairs(const CandidateFitter& fitter, const Reident
     };
     for (std::size_t i = 0; i < scanned.size(); ++i) {
       for (std::size_t j = i + 1; j < scanned.size(); ++j) {
+        // (a: the better single score, first in the pair)
         const bool i_first = single_score(scanned[i]) <= single_score(scanned[j]);
+        const std::size_t a = i_first ? i : j, b = i_first ? j : i;
         PairStart ps;
-        ps.at = {i_first ? scanned[i] : scanned[j], i_first ? scanned[j] : scanned[i]};
+        ps.at = {scanned[a], scanned[b]};
         EffectSearch search = effect_search(prepared, reid, opt, model.effects);
-        if (!search_pair_afresh(setups[i_first ? i : j], setups[i_first ? j : i], search)) continue;
+        if (!search_pair_afresh(setups[a], setups[b], search)) continue;
         ps.effects = search.best;
         ps.screen_rms = search.best_rms;
         ps.afresh = true;
