@@ -1061,8 +1061,8 @@ RoundStart start_round(const std::vector<DiagnoseRun>& runs_in, const PreparedRu
   const std::vector<std::size_t>& fit_runs = prepared.fit_runs;
   RoundStart s;
   {
-    const auto rr = run_rms_with(runs_in, prepared.all, model.effects, model.scales, opt, model.alpha);
-    s.error_before = pooled_rms(runs_in, rr, prepared.all);
+    s.run_error_before = run_rms_with(runs_in, prepared.all, model.effects, model.scales, opt, model.alpha);
+    s.error_before = pooled_rms(runs_in, s.run_error_before, prepared.all);
   }
   // The current model's simulations along the fit runs, for the equation-error starts.
   std::vector<SimulationResult> fit_sims(runs.size());
@@ -1259,9 +1259,8 @@ CandidateScore CandidateFitter::fit_joint(const std::vector<EffectKind>& kinds, 
     cand.effects = effects_of(blocks, base, ms, fitted.values);
     cand.training_rms = fitted.rms;
     cand.alpha = alpha;
-    cand.error_after = pooled_rms(
-        runs_in_, run_rms_with(runs_in_, prepared_.all, cand.effects, cand.scales, opt, alpha),
-        prepared_.all);
+    cand.run_error_after = run_rms_with(runs_in_, prepared_.all, cand.effects, cand.scales, opt, alpha);
+    cand.error_after = pooled_rms(runs_in_, cand.run_error_after, prepared_.all);
   };
   take_fit(full);
   // --- named work (competition): the second α-model (the breakpoints refined locally at the
@@ -1886,12 +1885,13 @@ CandidateScore settle_winner(const CandidateFitter& fitter, const CandidateScore
   if (r.ok) {
     const Effects e = effects_of(blocks, current, winner.scales, r.values);
     const ModelScales s = scales_of(winner.scales, r.values);
-    const double after =
-        pooled_rms(runs_in, run_rms_with(runs_in, all, e, s, opt, winner.alpha), all);
+    std::vector<double> run_after = run_rms_with(runs_in, all, e, s, opt, winner.alpha);
+    const double after = pooled_rms(runs_in, run_after, all);
     if (std::isfinite(after) && after < winner.error_after) {
       settled.effects = e;
       settled.scales = s;
       settled.error_after = after;
+      settled.run_error_after = std::move(run_after);
       settled.message = "settled on the whole fit runs (RMS over all runs " +
                         num(winner.error_after, "%.4g") + " from the windows' fit)";
     }
@@ -1936,6 +1936,64 @@ std::string fails_all_runs(double error_after, const DiagnoseRound& rd, double s
            " is above that of none refitted, " + num(reference, "%.4g") + ": the gain is the refit's";
   }
   return {};
+}
+
+double median_run_ratio(const std::vector<double>& after, const std::vector<double>& before) {
+  std::vector<double> ratios;
+  for (std::size_t i = 0; i < after.size() && i < before.size(); ++i) {
+    if (std::isfinite(after[i]) && std::isfinite(before[i]) && before[i] > 0.0)
+      ratios.push_back(after[i] / before[i]);
+  }
+  if (ratios.size() < kMinRunsForMedian) return kNaN;
+  const std::size_t h = ratios.size() / 2;
+  std::nth_element(ratios.begin(), ratios.begin() + static_cast<std::ptrdiff_t>(h), ratios.end());
+  const double upper = ratios[h];
+  if (ratios.size() % 2 == 1) return upper;
+  const double lower = *std::max_element(ratios.begin(), ratios.begin() + static_cast<std::ptrdiff_t>(h));
+  return 0.5 * (lower + upper);
+}
+
+std::optional<std::string> named_by_most_runs(const CandidateScore& settled, const DiagnoseRound& rd,
+                                              double significance) {
+  if (settled.run_error_after.empty() || rd.run_error_before.empty()) return std::nullopt;
+  // The nones the round scored (cross-validated: the folds) and refitted (per run).
+  std::vector<const CandidateScore*> nones;
+  for (const CandidateScore& c : rd.candidates) {
+    if (c.ok && c.effect == EffectKind::kNone) nones.push_back(&c);
+  }
+  for (const auto* o : {&rd.none_at_winner_breakpoints, &rd.none_at_runner_up_breakpoints, &rd.none_across_gap}) {
+    if (o->has_value() && (*o)->ok) nones.push_back(&**o);
+  }
+  bool folds_compared = false;
+  for (const CandidateScore* n : nones) {
+    for (std::size_t f = 0; f < 2; ++f) {
+      if (!std::isfinite(n->fold_scores[f])) continue;
+      if (!(settled.fold_scores[f] <= kFarBelowNone * n->fold_scores[f])) return std::nullopt;
+      folds_compared = true;
+    }
+  }
+  if (!folds_compared) return std::nullopt;
+  const double to_before = median_run_ratio(settled.run_error_after, rd.run_error_before);
+  if (!(to_before <= 1.0 - 0.5 * significance)) return std::nullopt;
+  double to_none = 0.0;  // the largest median ratio to a `none` refit
+  for (const CandidateScore* n : nones) {
+    if (n->run_error_after.empty()) continue;
+    const double r = median_run_ratio(settled.run_error_after, n->run_error_after);
+    if (!(r <= 1.0)) return std::nullopt;
+    to_none = std::max(to_none, r);
+  }
+  std::size_t worse = 0, compared = 0;
+  for (std::size_t i = 0; i < settled.run_error_after.size() && i < rd.run_error_before.size(); ++i) {
+    if (!std::isfinite(settled.run_error_after[i]) || !std::isfinite(rd.run_error_before[i])) continue;
+    ++compared;
+    if (settled.run_error_after[i] > rd.run_error_before[i]) ++worse;
+  }
+  std::string note = "named by most runs: both folds at most " + num(kFarBelowNone, "%.2g") +
+                     " × those of none, the median of the runs' RMS ratios " + num(to_before, "%.3g") +
+                     " to before";
+  if (to_none > 0.0) note += " and at most " + num(to_none, "%.3g") + " to none refitted";
+  note += "; worse on " + std::to_string(worse) + " of " + std::to_string(compared) + " runs";
+  return note;
 }
 
 KeptAloneVerdict judge_kept_alone(double error_after, const DiagnoseRound& rd, double significance,
@@ -2239,6 +2297,7 @@ std::optional<std::size_t> try_pairs(const CandidateFitter& fitter, const Reiden
     alone.effect = ps.kinds[keep];
     alone.effects = without_member(s.effects, ps.kinds[drop]);
     alone.error_after = without[drop];
+    alone.run_error_after.clear();  // the pair's runs, not the member's alone
     const CandidateScore s1 = settle_winner(fitter, alone, {ps.kinds[keep]});
     // Named alone it is a single winner, held to a single's test (fails_all_runs()): a 5.2 ms
     // delay (seed 42) was named saturation alone from saturation + deadzone, 0.0182 over all
@@ -2279,6 +2338,7 @@ DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const Prep
   DiagnoseRound rd;
   const RoundStart start = start_round(runs_in, prepared, model, reid, opt);
   rd.error_before = start.error_before;
+  rd.run_error_before = start.run_error_before;
   CandidateFitter fitter(runs_in, prepared, model, opt);
   // Candidates fitted but not yet cross-validated, by catalogue position.
   std::vector<PendingCrossValidation> pending(catalogue.size());
@@ -2375,6 +2435,11 @@ DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const Prep
     s = settle_winner(fitter, rd.candidates[k]);
     const std::string why = fails_all_runs(s.error_after, rd, opt.significance);
     if (why.empty()) return true;
+    if (const std::optional<std::string> most = named_by_most_runs(s, rd, opt.significance)) {
+      // Where one run outweighs the rest in the pooled RMS (named_by_most_runs()).
+      s.message = then_note(*most + " (" + why + ")", s.message);
+      return true;
+    }
     CandidateScore& c = rd.candidates[k];
     c.message = then_note(refused + why, c.message);
     return false;

@@ -22,6 +22,13 @@ std::string fmt(double x, const char* f = "%.4g") {
   return b;
 }
 
+/// The change from `before` to `after` in words: "12.3 % less", "5.9 % more" (the RMS may rise
+/// where an effect is named by most runs: named_by_most_runs()).
+std::string change_in_words(double before, double after) {
+  const double less = 100.0 * (1.0 - after / before);
+  return less >= 0.0 ? fmt(less, "%.1f") + " % less" : fmt(-less, "%.1f") + " % more";
+}
+
 /// The effects named, joined by ", "; "none" when there are none.
 std::string named_text(const std::vector<EffectKind>& named) {
   std::string s;
@@ -203,7 +210,7 @@ std::string DiagnoseResult::full_report() const {
   s << "  runs: " << before.run_rms.size() << " (" << fit_runs.size() << " to fit and score), "
     << fmt(seconds, "%.1f") << " s\n"
     << "  RMS of θ − θ_sim over all runs: " << fmt(error_before) << " → " << fmt(error_after);
-  if (error_before > 0) s << " (" << fmt(100.0 * (1.0 - error_after / error_before), "%.1f") << " % less)";
+  if (error_before > 0) s << " (" << change_in_words(error_before, error_after) << ")";
   s << "\n  effects named: " << named_text(effects_named) << "\n";
   for (EffectKind k : effects_named)
     s << "    " << effect_name(k) << ": " << effect_parameters_text(effects, k) << "\n";
@@ -361,7 +368,7 @@ std::string diagnose_report_markdown(const DiagnoseResult& r, const std::vector<
   }
   s << "## The gap before and after\n\nRMS of θ − θ_sim over all runs: **" << fmt(r.error_before)
     << " → " << fmt(r.error_after) << "**";
-  if (r.error_before > 0) s << " (" << fmt(100.0 * (1.0 - r.error_after / r.error_before), "%.1f") << " % less)";
+  if (r.error_before > 0) s << " (" << change_in_words(r.error_before, r.error_after) << ")";
   s << ".\n\n| run | RMS before | RMS after | change |\n|---|---|---|---|\n";
   for (std::size_t i = 0; i < runs.size(); ++i) {
     const double b = run_rms_at(r.before, i), a = run_rms_at(r.after, i);

@@ -110,6 +110,11 @@ TEST(DiagnoseReport, BriefAndFullReportOfAHandBuiltResult) {
   EXPECT_EQ(full.rfind("Diagnose report: usable\n  termination: max effects\n", 0), 0u) << full;
   EXPECT_NE(full.find("  runs: 2 (2 to fit and score), 1.5 s\n"), std::string::npos) << full;
   EXPECT_NE(full.find("over all runs: 0.02 → 0.01 (50.0 % less)\n"), std::string::npos) << full;
+  // An RMS that rose (an effect named by most runs, whose pooled RMS is higher): "more".
+  DiagnoseResult rose = hand_built();
+  rose.error_after = 0.021;
+  EXPECT_NE(rose.full_report().find("over all runs: 0.02 → 0.021 (5.0 % more)\n"), std::string::npos)
+      << rose.full_report();
   EXPECT_NE(full.find("    offset_torque: offset_v = 0.0123 command unit\n"), std::string::npos);
   EXPECT_NE(full.find("Round 1: offset_torque (RMS 0.02 → 0.01)\n"), std::string::npos) << full;
   EXPECT_NE(full.find("  offset_torque *                    0.001       0.0011      0.0009      0.01        "

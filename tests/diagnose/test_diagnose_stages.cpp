@@ -438,6 +438,75 @@ TEST(DiagnoseStages, AMemberKeptAloneFailingOnlyTheNoneRefitIsNamedOnTrial) {
   EXPECT_TRUE(judge_kept_alone(0.0441, rd, 0.1, true).on_trial);
 }
 
+TEST(DiagnoseStages, TheMedianRunRatioSkipsRunsWithoutBothAndNeedsThree) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_DOUBLE_EQ(median_run_ratio({1.0, 3.0, 2.0}, {2.0, 2.0, 2.0}), 1.0);        // 0.5, 1.5, 1
+  EXPECT_DOUBLE_EQ(median_run_ratio({1.0, 3.0, 2.0, 4.0}, {4.0, 4.0, 4.0, 4.0}), 0.625);  // (0.5 + 0.75)/2
+  // A run without an RMS (not simulated) or with a zero before is not counted.
+  EXPECT_DOUBLE_EQ(median_run_ratio({1.0, nan, 2.0, 3.0, 9.0, 4.0}, {1.0, 1.0, nan, 1.0, 0.0, 2.0}), 2.0);
+  EXPECT_TRUE(std::isnan(median_run_ratio({1.0, 2.0}, {1.0, 1.0})));
+  EXPECT_TRUE(std::isnan(median_run_ratio({1.0, 2.0, 3.0}, {1.0, nan, 1.0})));
+}
+
+TEST(DiagnoseStages, AWinnerFarBelowNoneInBothFoldsIsNamedByMostRunsWhenOneRunOutweighsThem) {
+  // Cogging of seed 45 (--vary; plant 0.0228 V, period 0.01538 rad), round 1: the nine sine runs
+  // and the square run, RMS before and with the cogging settled (its steps settle in other wells).
+  DiagnoseRound rd;
+  rd.error_before = 0.003507;
+  rd.run_error_before = {0.002526, 0.001512, 0.002207, 0.002396, 0.003166,
+                         0.001968, 0.004493, 0.0029,   0.005258, 0.005316};
+  CandidateScore none = scored(EffectKind::kNone, 0.002595);
+  none.fold_scores = {0.002641, 0.002549};
+  none.error_after = 0.003315;
+  rd.candidates = {none};
+  CandidateScore at_breakpoints = scored(EffectKind::kNone, 0.002643);
+  at_breakpoints.fold_scores = {0.002645, 0.002642};
+  at_breakpoints.error_after = 0.0032;
+  rd.none_at_winner_breakpoints = at_breakpoints;
+  CandidateScore cogging = scored(EffectKind::kCogging, 0.0006753);
+  cogging.fold_scores = {0.0007133, 0.0006351};
+  cogging.error_after = 0.003714;
+  cogging.run_error_after = {0.0004866, 0.0005107, 0.0007201, 0.002008, 0.0006746,
+                             0.0005661, 0.0002966, 0.0009703, 0.008959, 0.006446};
+  // The pooled test refuses it (0.003714 against 0.95 × 0.003507) ...
+  EXPECT_NE(fails_all_runs(cogging.error_after, rd, 0.1), "");
+  // ... run by run it is below before on 8 of 10 (median ratio (0.3263 + 0.3346)/2 = 0.3305).
+  std::optional<std::string> note = named_by_most_runs(cogging, rd, 0.1);
+  ASSERT_TRUE(note.has_value());
+  EXPECT_NE(note->find("median of the runs' RMS ratios 0.33 to before"), std::string::npos) << *note;
+  EXPECT_NE(note->find("worse on 2 of 10 runs"), std::string::npos) << *note;
+  // No per-run RMS of the refits: only the error before is compared.
+  EXPECT_EQ(note->find("to none refitted"), std::string::npos) << *note;
+  // A `none` refit with per-run RMS: the winner must be at least as good in most runs.
+  CandidateScore refit = at_breakpoints;
+  refit.run_error_after = cogging.run_error_after;
+  for (std::size_t i = 0; i < 6; ++i) refit.run_error_after[i] *= 0.9;  // 6 of 10 below the winner
+  rd.none_at_winner_breakpoints = refit;
+  EXPECT_FALSE(named_by_most_runs(cogging, rd, 0.1).has_value());
+  for (std::size_t i = 0; i < 6; ++i) refit.run_error_after[i] /= 0.8;  // now 6 of 10 above it
+  rd.none_at_winner_breakpoints = refit;
+  note = named_by_most_runs(cogging, rd, 0.1);
+  ASSERT_TRUE(note.has_value());
+  EXPECT_NE(note->find("at most 0.889 to none refitted"), std::string::npos) << *note;  // 0.8/0.9
+  rd.none_at_winner_breakpoints = at_breakpoints;
+  // Not far below `none` in one fold (0.6 × 0.002549 > kFarBelowNone × it): the pooled test holds.
+  CandidateScore near = cogging;
+  near.fold_scores[1] = 0.6 * 0.002549;
+  EXPECT_FALSE(named_by_most_runs(near, rd, 0.1).has_value());
+  // Far below in the folds but the median run not below 0.95 × before (4 runs at half, 6 at
+  // 0.96): refused; with 6 at half it passes.
+  CandidateScore flat = cogging;
+  for (std::size_t i = 0; i < flat.run_error_after.size(); ++i)
+    flat.run_error_after[i] = (i < 4 ? 0.5 : 0.96) * rd.run_error_before[i];
+  EXPECT_FALSE(named_by_most_runs(flat, rd, 0.1).has_value());
+  for (std::size_t i = 4; i < 6; ++i) flat.run_error_after[i] = 0.5 * rd.run_error_before[i];
+  EXPECT_TRUE(named_by_most_runs(flat, rd, 0.1).has_value());  // median (0.5 + 0.96)/2 = 0.73
+  // Without per-run RMS (a member kept alone from a pair): the pooled test only.
+  CandidateScore pooled_only = cogging;
+  pooled_only.run_error_after.clear();
+  EXPECT_FALSE(named_by_most_runs(pooled_only, rd, 0.1).has_value());
+}
+
 TEST(DiagnoseStages, ChooseTakesTheSimplerWithinFivePercentAndRefusesASubTickDelay) {
   // Hand-built candidates without α-models: choose_winner() fits nothing then.
   const ChooseSetup setup;

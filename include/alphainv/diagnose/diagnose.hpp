@@ -146,6 +146,9 @@ struct CandidateScore {
   std::array<double, 2> fold_scores{{std::numeric_limits<double>::infinity(),
                                      std::numeric_limits<double>::infinity()}};
   double error_after = std::numeric_limits<double>::quiet_NaN();  ///< RMS over all runs
+  /// The RMS of each run given (indexed as the runs; NaN for a run not simulated), whose pooled
+  /// value is error_after; empty where only the pooled value was computed.
+  std::vector<double> run_error_after;
   /// RMS of the fit on all fit runs (fit windows) [position unit]
   double training_rms = std::numeric_limits<double>::quiet_NaN();
   bool cross_validated = true;  ///< false: pruned, `score` is its training RMS
@@ -226,6 +229,8 @@ struct DiagnoseRound {
   std::vector<PairScore> pairs;
   double error_before = std::numeric_limits<double>::quiet_NaN();
   double error_after = std::numeric_limits<double>::quiet_NaN();
+  /// error_before run by run (indexed as the runs given), for named_by_most_runs().
+  std::vector<double> run_error_before;
   /// Nothing named, and `none` (the model's own α-model re-identified, its coefficient factors
   /// refitted by output error, settled on the whole fit runs; or the α-model linear across the
   /// widest gap of the sine points' α, with unit factors, as the sine points give it) explains the data to the noise
