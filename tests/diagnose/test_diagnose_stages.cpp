@@ -438,7 +438,7 @@ TEST(DiagnoseStages, AMemberKeptAloneFailingOnlyTheNoneRefitIsNamedOnTrial) {
   EXPECT_TRUE(judge_kept_alone(0.0441, rd, 0.1, true).on_trial);
 }
 
-TEST(DiagnoseStages, TheMedianRunRatioSkipsRunsWithoutBothAndNeedsThree) {
+TEST(DiagnoseStages, TheMedianRunRatioSkipsRunsWithoutBothAndNeedsThreeAndIsSaidInWords) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   EXPECT_DOUBLE_EQ(median_run_ratio({1.0, 3.0, 2.0}, {2.0, 2.0, 2.0}), 1.0);        // 0.5, 1.5, 1
   EXPECT_DOUBLE_EQ(median_run_ratio({1.0, 3.0, 2.0, 4.0}, {4.0, 4.0, 4.0, 4.0}), 0.625);  // (0.5 + 0.75)/2
@@ -446,6 +446,35 @@ TEST(DiagnoseStages, TheMedianRunRatioSkipsRunsWithoutBothAndNeedsThree) {
   EXPECT_DOUBLE_EQ(median_run_ratio({1.0, nan, 2.0, 3.0, 9.0, 4.0}, {1.0, 1.0, nan, 1.0, 0.0, 2.0}), 2.0);
   EXPECT_TRUE(std::isnan(median_run_ratio({1.0, 2.0}, {1.0, 1.0})));
   EXPECT_TRUE(std::isnan(median_run_ratio({1.0, 2.0, 3.0}, {1.0, nan, 1.0})));
+  EXPECT_EQ(runs_better_in_words({1.0, 3.0, 2.0, 1.5}, {2.0, 2.0, 2.0, 2.0}),
+            "better on 2 of 4 runs (median RMS ratio 0.875)");  // (0.75 + 1)/2; a tie is not better
+  EXPECT_EQ(runs_better_in_words({1.0, 2.0}, {2.0, 2.0}), "");
+}
+
+TEST(DiagnoseStages, ATorqueOfTheStateMustBeBetterOnMostRunsNotOnlyPooled) {
+  // Hand-built runs: five runs a third lower, five 2 % higher (the invented frictional lag of
+  // seed 32, round 2: a cogging better on 5 of 10 runs, median ratio 0.981, pooled 6.4 % lower).
+  DiagnoseRound rd;
+  rd.run_error_before = {0.003, 0.002, 0.001, 0.001, 0.001, 0.001, 0.001, 0.001, 0.001, 0.001};
+  CandidateScore cogging = scored(EffectKind::kCogging, 0.0005);
+  cogging.run_error_after = rd.run_error_before;
+  for (std::size_t i = 0; i < 10; ++i) cogging.run_error_after[i] *= i < 5 ? 2.0 / 3.0 : 1.02;
+  // The median (2/3 + 1.02)/2 = 0.843: better on most runs, passes.
+  EXPECT_EQ(fails_most_runs(cogging, rd, 0.1), "");
+  cogging.run_error_after[4] = 1.02 * rd.run_error_before[4];  // now 4 of 10 better: median 1.02
+  const std::string why = fails_most_runs(cogging, rd, 0.1);
+  EXPECT_NE(why.find("better on 4 of 10 runs (median RMS ratio 1.02)"), std::string::npos) << why;
+  // At 0.96 × before on 6 runs: not below 1 − significance/2 = 0.95 either.
+  for (std::size_t i = 4; i < 10; ++i) cogging.run_error_after[i] = 0.96 * rd.run_error_before[i];
+  EXPECT_NE(fails_most_runs(cogging, rd, 0.1), "");
+  // A command-path effect acts only on the runs whose |v| reaches it: not held to this test.
+  CandidateScore saturation = cogging;
+  saturation.effect = EffectKind::kSaturation;
+  EXPECT_EQ(fails_most_runs(saturation, rd, 0.1), "");
+  // Fewer than three runs with both RMS values: nothing to say.
+  CandidateScore two = cogging;
+  two.run_error_after.resize(2);
+  EXPECT_EQ(fails_most_runs(two, rd, 0.1), "");
 }
 
 TEST(DiagnoseStages, AWinnerFarBelowNoneInBothFoldsIsNamedByMostRunsWhenOneRunOutweighsThem) {
