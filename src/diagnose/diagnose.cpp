@@ -2311,9 +2311,11 @@ std::optional<std::size_t> try_pairs(const CandidateFitter& fitter, const Reiden
     const std::size_t drop =
         needed(0) != needed(1) ? (needed(0) ? 1 : 0) : (without[0] <= without[1] ? 0 : 1);
     const std::size_t keep = 1 - drop;
-    const std::string why = std::string(effect_name(ps.kinds[drop])) +
-                            " adds nothing over all runs (RMS " + num(s.error_after, "%.4g") +
-                            " with it, " + num(without[drop], "%.4g") + " without)";
+    std::string why = std::string(effect_name(ps.kinds[drop])) + " adds nothing over all runs (RMS " +
+                      num(s.error_after, "%.4g") + " with it, " + num(without[drop], "%.4g") + " without";
+    if (std::string runs = runs_better_in_words(s.run_error_after, run_without[drop]); !runs.empty())
+      why += "; with it " + runs;
+    why += ")";
     CandidateScore alone = s;
     alone.effect = ps.kinds[keep];
     alone.effects = without_member(s.effects, ps.kinds[drop]);
