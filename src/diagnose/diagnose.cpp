@@ -1966,15 +1966,6 @@ std::string runs_better_in_words(const std::vector<double>& after, const std::ve
          " runs (median RMS ratio " + num(median, "%.3g") + ")";
 }
 
-std::string fails_most_runs(const CandidateScore& settled, const DiagnoseRound& rd, double significance) {
-  if (settled.effect == EffectKind::kNone || effect_spec(settled.effect).role != EffectRole::kTorque) return {};
-  const double median = median_run_ratio(settled.run_error_after, rd.run_error_before);
-  if (!std::isfinite(median) || median <= 1.0 - 0.5 * significance) return {};
-  return "a torque of the state, but over all runs " +
-         runs_better_in_words(settled.run_error_after, rd.run_error_before) +
-         ": the median not below 1 − significance/2";
-}
-
 std::optional<std::string> named_by_most_runs(const CandidateScore& settled, const DiagnoseRound& rd,
                                               double significance) {
   if (settled.run_error_after.empty() || rd.run_error_before.empty()) return std::nullopt;
@@ -2326,12 +2317,7 @@ std::optional<std::size_t> try_pairs(const CandidateFitter& fitter, const Reiden
     // delay (seed 42) was named saturation alone from saturation + deadzone, 0.0182 over all
     // runs where `none` refitted gave 0.0149. Failing only the `none` refit, it may be named on
     // trial (DiagnoseRound::on_trial_reference_rms): the rounds after it must end below that.
-    KeptAloneVerdict kept = judge_kept_alone(s1.error_after, rd, opt.significance, on_trial_allowed);
-    // … and, a torque of the state, better on most runs (fails_most_runs()).
-    if (std::string most = fails_most_runs(s1, rd, opt.significance); kept.named && !most.empty()) {
-      kept = KeptAloneVerdict{};
-      kept.why = std::move(most);
-    }
+    const KeptAloneVerdict kept = judge_kept_alone(s1.error_after, rd, opt.significance, on_trial_allowed);
     if (!kept.named) {
       f.message = why + "; " + effect_name(ps.kinds[keep]) + " alone: " + kept.why;
       return std::nullopt;
@@ -2461,8 +2447,7 @@ DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const Prep
   // refitted gave 0.0149). Else `refused` and why go first in its note.
   const auto settled_passes = [&](std::size_t k, const std::string& refused) {
     s = settle_winner(fitter, rd.candidates[k]);
-    std::string why = fails_all_runs(s.error_after, rd, opt.significance);
-    if (why.empty()) why = fails_most_runs(s, rd, opt.significance);
+    const std::string why = fails_all_runs(s.error_after, rd, opt.significance);
     if (why.empty()) {
       if (std::string runs = runs_better_in_words(s.run_error_after, rd.run_error_before); !runs.empty())
         s.message = then_note("over all runs " + runs, s.message);

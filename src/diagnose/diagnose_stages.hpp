@@ -508,16 +508,6 @@ inline constexpr std::size_t kMinRunsForMedian = 3;
 /// "better on k of n runs (median RMS ratio r)" of after against before, run by run (the runs
 /// where both are finite); empty when fewer than kMinRunsForMedian runs have both.
 std::string runs_better_in_words(const std::vector<double>& after, const std::vector<double>& before);
-/// A settled single winner whose effect is a torque of the state (EffectRole::kTorque: a
-/// function of θ and θ̇ that every run passes through) must also be better on most runs: the
-/// median of its runs' RMS over the round's before at most 1 − significance/2. Empty when it
-/// is (or when fewer than kMinRunsForMedian runs have both RMS values, or the effect acts on the
-/// command path or in time: a saturation or a deadzone acts only on the runs whose |v| reaches
-/// it), else why not. The pooled RMS weighs the runs by their squared error: a cogging of
-/// 0.0032 V named in round 2 of the invented frictional lag (seed 32), 6.4 % lower pooled and
-/// 17-29 % below `none` in the folds, was better on 5 of 10 runs (median ratio 0.981), where
-/// the Coulomb friction named before it was better on 9 of 10 (0.632).
-std::string fails_most_runs(const CandidateScore& settled, const DiagnoseRound& rd, double significance);
 /// A cut "by far": both folds at most this share of every cross-validated `none` of the round.
 inline constexpr double kFarBelowNone = 0.5;
 /// A settled single winner that fails fails_all_runs() is still named by most runs when it
@@ -601,7 +591,7 @@ std::vector<PairStart> choose_pairs(const CandidateFitter& fitter, const Reident
 /// Each member of the named pair must be needed: the settled pair's RMS over all runs at most
 /// (1 − significance/2) × its pooled run_rms_without_member(); otherwise the member whose removal
 /// costs least is dropped (PairScore::dropped) and the other named alone when, settled alone from
-/// the pair's values, it passes fails_all_runs() and fails_most_runs(); with `on_trial_allowed`, also when it fails only
+/// the pair's values, it passes fails_all_runs(); with `on_trial_allowed`, also when it fails only
 /// the `none` refit (not_below_before() passes): then on trial, rd.on_trial_reference_rms set.
 std::optional<std::size_t> try_pairs(const CandidateFitter& fitter, const Reidentifier& reid,
                                      DiagnoseRound& rd, CandidateScore* settled,
