@@ -1995,17 +1995,10 @@ std::optional<std::string> named_by_most_runs(const CandidateScore& settled, con
     if (!(r <= 1.0)) return std::nullopt;
     to_none = std::max(to_none, r);
   }
-  std::size_t worse = 0, compared = 0;
-  for (std::size_t i = 0; i < settled.run_error_after.size() && i < rd.run_error_before.size(); ++i) {
-    if (!std::isfinite(settled.run_error_after[i]) || !std::isfinite(rd.run_error_before[i])) continue;
-    ++compared;
-    if (settled.run_error_after[i] > rd.run_error_before[i]) ++worse;
-  }
   std::string note = "named by most runs: both folds at most " + num(kFarBelowNone, "%.2g") +
-                     " × those of none, the median of the runs' RMS ratios " + num(to_before, "%.3g") +
-                     " to before";
-  if (to_none > 0.0) note += " and at most " + num(to_none, "%.3g") + " to none refitted";
-  note += "; worse on " + std::to_string(worse) + " of " + std::to_string(compared) + " runs";
+                     " × those of none; over all runs " +
+                     runs_better_in_words(settled.run_error_after, rd.run_error_before);
+  if (to_none > 0.0) note += ", the median ratio at most " + num(to_none, "%.3g") + " to none refitted";
   return note;
 }
 

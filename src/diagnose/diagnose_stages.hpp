@@ -519,8 +519,9 @@ inline constexpr double kFarBelowNone = 0.5;
 /// exactly (0.0228 V, period 0.01538 rad) and 74 % below `none` in both folds, took the nine
 /// sine runs' error down (3.6 % → 2.3 % of the amplitude) and the square run's up
 /// (0.0037 → 0.0070 rad: its steps settle in other wells of the cogging, a multistable plant),
-/// 0.00371 over all runs against 0.00351 before. Returns the note said when named (the runs
-/// it does worse on counted), nullopt otherwise; a winner without per-run RMS: nullopt.
+/// 0.00371 over all runs against 0.00351 before. Returns the note said when named (on how many
+/// runs it is better: runs_better_in_words()), nullopt otherwise; a winner without per-run RMS:
+/// nullopt.
 std::optional<std::string> named_by_most_runs(const CandidateScore& settled, const DiagnoseRound& rd,
                                               double significance);
 

@@ -229,7 +229,8 @@ struct DiagnoseRound {
   std::vector<PairScore> pairs;
   double error_before = std::numeric_limits<double>::quiet_NaN();
   double error_after = std::numeric_limits<double>::quiet_NaN();
-  /// error_before run by run (indexed as the runs given), for named_by_most_runs().
+  /// error_before run by run (indexed as the runs given): the runs judged one by one too
+  /// (docs/diagnose.md, item 4).
   std::vector<double> run_error_before;
   /// Nothing named, and `none` (the model's own α-model re-identified, its coefficient factors
   /// refitted by output error, settled on the whole fit runs; or the α-model linear across the
