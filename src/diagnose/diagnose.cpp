@@ -1914,16 +1914,39 @@ std::string not_below_before(double error_after, double error_before, double sig
          " is not below (1 − significance/2) × " + num(error_before, "%.4g") + " before";
 }
 
+namespace {
+
+/// The round's `none`s, fitted: `none` among the candidates, at the winner's and the runner-up's
+/// breakpoints, across the α gap.
+std::vector<const CandidateScore*> round_nones(const DiagnoseRound& rd) {
+  std::vector<const CandidateScore*> nones;
+  const auto add = [&nones](const CandidateScore& c) {
+    if (c.ok && c.effect == EffectKind::kNone) nones.push_back(&c);
+  };
+  for (const CandidateScore& c : rd.candidates) add(c);
+  for (const auto* o : {&rd.none_at_winner_breakpoints, &rd.none_at_runner_up_breakpoints, &rd.none_across_gap}) {
+    if (o->has_value()) add(**o);
+  }
+  return nones;
+}
+
+/// after[i] / before[i] over the runs where both are finite and before is positive.
+std::vector<double> run_ratios(const std::vector<double>& after, const std::vector<double>& before) {
+  std::vector<double> ratios;
+  for (std::size_t i = 0; i < after.size() && i < before.size(); ++i) {
+    if (std::isfinite(after[i]) && std::isfinite(before[i]) && before[i] > 0.0)
+      ratios.push_back(after[i] / before[i]);
+  }
+  return ratios;
+}
+
+}  // namespace
+
 double none_reference_rms(const DiagnoseRound& rd) {
   double ref = rd.error_before;
-  const auto lower = [&ref](const CandidateScore& c) {
-    if (c.ok && c.effect == EffectKind::kNone && std::isfinite(c.error_after) && c.error_after < ref)
-      ref = c.error_after;
-  };
-  for (const CandidateScore& c : rd.candidates) lower(c);
-  if (rd.none_at_winner_breakpoints) lower(*rd.none_at_winner_breakpoints);
-  if (rd.none_at_runner_up_breakpoints) lower(*rd.none_at_runner_up_breakpoints);
-  if (rd.none_across_gap) lower(*rd.none_across_gap);
+  for (const CandidateScore* c : round_nones(rd)) {
+    if (std::isfinite(c->error_after) && c->error_after < ref) ref = c->error_after;
+  }
   return ref;
 }
 
@@ -1939,11 +1962,7 @@ std::string fails_all_runs(double error_after, const DiagnoseRound& rd, double s
 }
 
 double median_run_ratio(const std::vector<double>& after, const std::vector<double>& before) {
-  std::vector<double> ratios;
-  for (std::size_t i = 0; i < after.size() && i < before.size(); ++i) {
-    if (std::isfinite(after[i]) && std::isfinite(before[i]) && before[i] > 0.0)
-      ratios.push_back(after[i] / before[i]);
-  }
+  std::vector<double> ratios = run_ratios(after, before);
   if (ratios.size() < kMinRunsForMedian) return kNaN;
   const std::size_t h = ratios.size() / 2;
   std::nth_element(ratios.begin(), ratios.begin() + static_cast<std::ptrdiff_t>(h), ratios.end());
@@ -1956,13 +1975,9 @@ double median_run_ratio(const std::vector<double>& after, const std::vector<doub
 std::string runs_better_in_words(const std::vector<double>& after, const std::vector<double>& before) {
   const double median = median_run_ratio(after, before);
   if (!std::isfinite(median)) return {};
-  std::size_t better = 0, compared = 0;
-  for (std::size_t i = 0; i < after.size() && i < before.size(); ++i) {
-    if (!std::isfinite(after[i]) || !std::isfinite(before[i]) || !(before[i] > 0.0)) continue;
-    ++compared;
-    if (after[i] < before[i]) ++better;
-  }
-  return "better on " + std::to_string(better) + " of " + std::to_string(compared) +
+  const std::vector<double> ratios = run_ratios(after, before);
+  const auto better = std::count_if(ratios.begin(), ratios.end(), [](double r) { return r < 1.0; });
+  return "better on " + std::to_string(better) + " of " + std::to_string(ratios.size()) +
          " runs (median RMS ratio " + num(median, "%.3g") + ")";
 }
 
@@ -1970,13 +1985,7 @@ std::optional<std::string> named_by_most_runs(const CandidateScore& settled, con
                                               double significance) {
   if (settled.run_error_after.empty() || rd.run_error_before.empty()) return std::nullopt;
   // The nones the round scored (cross-validated: the folds) and refitted (per run).
-  std::vector<const CandidateScore*> nones;
-  for (const CandidateScore& c : rd.candidates) {
-    if (c.ok && c.effect == EffectKind::kNone) nones.push_back(&c);
-  }
-  for (const auto* o : {&rd.none_at_winner_breakpoints, &rd.none_at_runner_up_breakpoints, &rd.none_across_gap}) {
-    if (o->has_value() && (*o)->ok) nones.push_back(&**o);
-  }
+  const std::vector<const CandidateScore*> nones = round_nones(rd);
   bool folds_compared = false;
   for (const CandidateScore* n : nones) {
     for (std::size_t f = 0; f < 2; ++f) {
