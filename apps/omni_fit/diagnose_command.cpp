@@ -99,6 +99,7 @@ nlohmann::json result_json(const DiagnoseResult& res) {
                             {"took_in", name_or_null(d.took_in)},
                             {"took_in_tried", name_or_null(d.took_in_tried)},
                             {"took_in_error_after", num(d.took_in_error_after)},
+                            {"took_in_structure_after", num(d.took_in_structure_after)},
                             {"carries_remainder", d.carries_remainder}};
     if (d.kept) named.push_back(entry);
     j["discovered"] = entry;

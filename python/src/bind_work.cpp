@@ -333,6 +333,7 @@ struct DiagnoseOutcome {
                            effect_parameters_text(p.fit.effects, p.kinds[1]);
         pd["named"] = p.named;
         pd["dropped"] = effect_name(p.dropped);  // a member that added nothing ("none": both kept)
+        pd["refined_from"] = effect_name(p.refined_from);  // the member this pair has in a general form ("none")
         pairs.append(pd);
       }
       d["pairs"] = pairs;
@@ -427,6 +428,7 @@ struct DiagnoseOutcome {
     // the named friction whose place was tried (the best such contender), and its RMS (None: none tried)
     d["took_in_tried"] = name_or_none(t.took_in_tried);
     d["took_in_error_after"] = num(t.took_in_error_after);
+    d["took_in_structure_after"] = num(t.took_in_structure_after);
     return d;
   }
   /// DiagnoseResult::not_separable: the candidates the data cannot tell from the named effects.
@@ -681,7 +683,7 @@ the residual concentrates, the model with the effects folded in, the reports.)")
       .def_property_readonly("discovered", &DiagnoseOutcome::discovered,
                              "the discovered term (None: not tried): kept, equation, reading, terms, "
                              "error_before, error_after, gap_closed, carries_remainder, took_in (the named friction "
-                             "whose place it took, or None), took_in_tried, took_in_error_after, message")
+                             "whose place it took, or None), took_in_tried, took_in_error_after, took_in_structure_after, message")
       .def_property_readonly("dropped", &DiagnoseOutcome::dropped,
                              "effects the rounds named that the model did without in the end (backward "
                              "elimination): dicts of effect, score_with, score_without, message")

@@ -2190,8 +2190,62 @@ std::vector<double> run_rms_without_member(const CandidateFitter& fitter, const 
                       settled.scales, fitter.options(), settled.alpha);
 }
 
+std::optional<std::size_t> refine_pair_member(const CandidateFitter& fitter, const TorqueResidual& torque_residual,
+                                              DiagnoseRound& rd, std::size_t best) {
+  const DiagnoseOptions& opt = fitter.options();
+  const RoundModel& model = fitter.model();
+  const PairScore base = rd.pairs[best];  // a copy: rd.pairs grows below
+  const std::string base_label = std::string(effect_name(base.kinds[0])) + " + " + effect_name(base.kinds[1]);
+  std::optional<std::size_t> chosen;
+  for (std::size_t m = 0; m < 2; ++m) {
+    const EffectKind member = base.kinds[m];
+    const EffectKind other = base.kinds[1 - m];
+    const double Effects::*level = effect_spec(member).parameters[0].member;
+    for (EffectKind kind : kAllEffectKinds) {
+      const EffectSpec& spec = effect_spec(kind);
+      if (!spec.candidate || !spec.generalises(member) || spec.take_in == nullptr || kind == other ||
+          std::find(model.named.begin(), model.named.end(), kind) != model.named.end())
+        continue;
+      // As try_refinements(): the form's shape from equation error, its levels the member's.
+      Effects e = without_member(base.fit.effects, member);
+      equation_error_start(kind, torque_residual, fitter.prepared().scales, e);
+      for (const auto& par : effect_parameters(kind)) {
+        if (par.check != ParameterCheck::kPositiveIfActive) e.*(par.member) = 0.0;
+      }
+      if (!spec.take_in(member, base.fit.effects.*level - model.effects.*level, e)) continue;
+      PairScore ps;
+      ps.kinds = base.kinds;
+      ps.kinds[m] = kind;
+      ps.refined_from = member;
+      ps.fit = fitter.fit_joint({ps.kinds[0], ps.kinds[1]}, e, base.fit.scales, base.fit.alpha, true, true,
+                                nullptr);
+      CandidateScore& f = ps.fit;
+      const std::string from = std::string(effect_name(member)) + " of the pair " + base_label + " as " +
+                               effect_name(kind) + " (from its fit)";
+      if (f.ok && f.cross_validated && !earns_its_place(f, base.fit, opt.significance)) {
+        f.message = then_note(from + ": not below (1 − significance/2) × the pair's score in both folds (nor not "
+                                     "worse in both and so below it over all runs): its extra parameters do "
+                                     "not earn their place",
+                              f.message);
+        f.cross_validated = false;
+      } else if (f.ok && f.cross_validated) {
+        // A choice of form, kept whatever the later stages say (settled, named, dropped).
+        f.modelling_note = then_note(from + ": its extra parameters earn their place (score " +
+                                         num(f.score, "%.4g") + " against " + num(base.fit.score, "%.4g") + ")",
+                                     f.modelling_note);
+        if (!chosen || f.score < rd.pairs[*chosen].fit.score) chosen = rd.pairs.size();
+      } else {
+        f.message = then_note(from, f.message);
+      }
+      rd.pairs.push_back(std::move(ps));
+    }
+  }
+  return chosen;
+}
+
 std::optional<std::size_t> try_pairs(const CandidateFitter& fitter, const Reidentifier& reid,
-                                     DiagnoseRound& rd, CandidateScore* settled, bool on_trial_allowed) {
+                                     DiagnoseRound& rd, CandidateScore* settled, bool on_trial_allowed,
+                                     const TorqueResidual* torque_residual) {
   const PreparedRuns& prepared = fitter.prepared();
   const RoundModel& model = fitter.model();
   const DiagnoseOptions& opt = fitter.options();
@@ -2233,6 +2287,15 @@ std::optional<std::size_t> try_pairs(const CandidateFitter& fitter, const Reiden
     CandidateScore& f = rd.pairs[k].fit;
     if (k != *best && f.ok && f.cross_validated && f.message.empty())
       f.message = "not the best pair (lowest score; fewest parameters within 5 %)";
+  }
+  // The best pair's members in the forms that generalise them (refine_pair_member()), when it
+  // beats `none` (else it is not named whatever its form).
+  if (torque_residual != nullptr && beats(rd.pairs[*best].fit, none_score, opt.significance)) {
+    if (const std::optional<std::size_t> r = refine_pair_member(fitter, *torque_residual, rd, *best)) {
+      CandidateScore& was = rd.pairs[*best].fit;
+      was.message = then_note("a member in a form that generalises it did better (below)", was.message);
+      best = r;
+    }
   }
   PairScore& ps = rd.pairs[*best];
   CandidateScore& f = ps.fit;
@@ -2537,7 +2600,8 @@ DiagnoseRound diagnose_round(const std::vector<DiagnoseRun>& runs_in, const Prep
     // No single effect: two that mask each other may, fitted together.
     CandidateScore pair;
     const std::optional<std::size_t> named_pair =
-        pair_fallback ? try_pairs(fitter, reid, rd, &pair, on_trial_allowed) : std::nullopt;
+        pair_fallback ? try_pairs(fitter, reid, rd, &pair, on_trial_allowed, &start.torque_residual)
+                      : std::nullopt;
     if (named_pair) {
       const PairScore& named = rd.pairs[*named_pair];
       // Both, or the one kept when the other added nothing (PairScore::dropped).

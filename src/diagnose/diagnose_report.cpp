@@ -138,6 +138,19 @@ std::string disturbance_markdown(const DisturbanceFinding& f) {
     if (shown > 40) s << "\n(" << f.intervals << " intervals in all; every one in disturbance.csv)\n";
     s << "\n";
   }
+  // The runs where nothing was located, and why (a run whose residual is not confined to a few
+  // windows can hide pulses the other runs show).
+  std::ostringstream none;
+  std::size_t n_none = 0;
+  for (std::size_t i = 0; i < f.runs.size() && i < f.run_names.size(); ++i) {
+    if (!f.runs[i].intervals.empty()) continue;
+    ++n_none;
+    none << "- " << f.run_names[i] << ": "
+         << (f.runs[i].message.empty() ? std::string("nothing located") : f.runs[i].message) << "\n";
+  }
+  if (f.intervals > 0 && n_none > 0) {
+    s << "Nothing located in " << n_none << " of " << f.runs.size() << " runs:\n\n" << none.str() << "\n";
+  }
   return s.str();
 }
 
@@ -332,8 +345,10 @@ std::string diagnose_report_markdown(const DiagnoseResult& r, const std::vector<
            "second searched with the first's fit, and every pair of the scanned effects searched "
            "together from nothing (a product of their scans); the "
         << diagnose_detail::kMaxPairFits
-        << " of lowest search RMS were fitted, and a pair is named when it passes the tests of a "
-           "single effect.\n";
+        << " of lowest search RMS were fitted; the best, when it beat none, was fitted again with "
+           "each member in the forms that generalise it (a Coulomb friction as Stribeck, "
+           "asymmetric or position-dependent friction), kept when their extra parameters earn "
+           "their place; and a pair is named when it passes the tests of a single effect.\n";
     }
     if (rd.none_refitted) {
       s << "\nNothing was named, but the model's own refitted (" << rd.none_refit_how

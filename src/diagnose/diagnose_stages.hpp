@@ -594,9 +594,26 @@ std::vector<PairStart> choose_pairs(const CandidateFitter& fitter, const Reident
 /// costs least is dropped (PairScore::dropped) and the other named alone when, settled alone from
 /// the pair's values, it passes fails_all_runs(); with `on_trial_allowed`, also when it fails only
 /// the `none` refit (not_below_before() passes): then on trial, rd.on_trial_reference_rms set.
+/// With `torque_residual` (the round's, RoundStart), the best pair, when it beats `none` in both
+/// folds, is first offered its members' generalisations (refine_pair_member()).
 std::optional<std::size_t> try_pairs(const CandidateFitter& fitter, const Reidentifier& reid,
                                      DiagnoseRound& rd, CandidateScore* settled,
-                                     bool on_trial_allowed = false);
+                                     bool on_trial_allowed = false,
+                                     const TorqueResidual* torque_residual = nullptr);
+
+/// The pair rd.pairs[best] with one member in a form that generalises it (EffectSpec::generalises,
+/// a catalogue candidate not in the model: a Coulomb friction as Stribeck, asymmetric or
+/// position-dependent friction), each fitted jointly with the other member from the pair's fit,
+/// the member's level taken in (EffectSpec::take_in) and the form's shape from equation error on
+/// `torque_residual`, cross-validated, and appended to rd.pairs (PairScore::refined_from). A pair
+/// of the nearest names is what the pool's single fits offer: a generalisation is tried in a
+/// round only when its parent is among the two best singles, and a member masked by its partner
+/// is not (deadzone + Stribeck friction, seed 41: the pair deadzone + Coulomb friction named, the
+/// Stribeck hump then taken for a 2.4 ms delay in round 2). Returns the index of the refined pair
+/// of lowest score among those whose extra parameters earn their place against the pair
+/// (earns_its_place()); nullopt when none does (each one's note says why).
+std::optional<std::size_t> refine_pair_member(const CandidateFitter& fitter, const TorqueResidual& torque_residual,
+                                              DiagnoseRound& rd, std::size_t best);
 
 /// `e` with the parameters of `kind` at their defaults (the effect off).
 Effects without_member(const Effects& e, EffectKind kind);

@@ -21,7 +21,7 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 /// n̂(t_k) = (θ̈ + C·θ̇)/β̃ − u at every sample of `d` (C, β̃ from the simulation `s` of the
-/// model; θ̇, θ̈ of the measured θ by local quadratics over ±10 ms); `valid` false in the first
+/// model, the run's recorded command replayed; θ̇, θ̈ of the measured θ by local quadratics over ±10 ms); `valid` false in the first
 /// and last 20 ms (one-sided fits) and where n̂ is not finite.
 void run_torque_residual(const RunData& d, const SimulationResult& s, const Effects& effects,
                          std::vector<double>& n_hat, std::vector<bool>& valid,
@@ -214,9 +214,17 @@ DisturbanceFinding locate_external_disturbance(const std::vector<DiagnoseRun>& r
     const DiagnoseRun& run = runs[i];
     const RunData& d = *run.data;
     const InitialState x0 = initial_state_of(d, run.start, run.command_history);
-    const SimulationResult s = simulate_recorded_run(
-        diagnosed_model(run.model, model.effects, model.scales, model.alpha), run.controller, d, x0,
-        opt.simulation);
+    // C and β̃ at the α of the command the run recorded: the model replayed open loop (the recorded
+    // v drives it; its θ is not used). The closed-loop simulation's α is the run's only while the
+    // simulation tracks it: after a pulse moves the joint, near a resonance, it departs for cycles
+    // and n̂ carries (C_sim − C)·θ̇ (the 2 Hz run of cogging + pulses, seed 41: window means 4×
+    // wider than with the recorded command's α, and none of its five pulses located).
+    // (The closed-loop one when the replay fails.)
+    const JointModelAtPose m = diagnosed_model(run.model, model.effects, model.scales, model.alpha);
+    Controller replay = run.controller;
+    replay.kp = replay.ki = replay.kd = 0.0;  // is_open_loop()
+    SimulationResult s = simulate_recorded_run(m, replay, d, x0, opt.simulation);
+    if (!s.ok) s = simulate_recorded_run(m, run.controller, d, x0, opt.simulation);
     std::vector<double> n_hat, dth;
     std::vector<bool> valid;
     run_torque_residual(d, s, model.effects, n_hat, valid, dth);

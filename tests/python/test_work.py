@@ -181,4 +181,5 @@ def test_diagnose_gives_the_discovered_term_that_carries_a_friction_no_candidate
     assert x["carries_remainder"] == (d.verdict["verdict"] == "explained")
     assert x["took_in"] is None  # (no named friction whose place it could take)
     assert x["took_in_tried"] is None and x["took_in_error_after"] is None  # (none was tried)
+    assert x["took_in_structure_after"] is None
     assert d.to_dict()["discovered"] == x

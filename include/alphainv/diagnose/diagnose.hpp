@@ -204,6 +204,10 @@ struct PairScore {
   /// scans, then Nelder-Mead on both), not from either one's single fit: two effects that mask
   /// each other can each fit alone at a wrong value.
   bool afresh = false;
+  /// A pair fitted with this member's generalisation in its place (EffectSpec::generalises): the
+  /// best pair had `refined_from` (a Coulomb friction) where this one has the generalisation,
+  /// started from that pair's fit with its level taken in (EffectSpec::take_in); kNone otherwise.
+  EffectKind refined_from = EffectKind::kNone;
 };
 
 /// One round.

@@ -102,6 +102,13 @@ SparseRegressionResult sparse_regression(
 /// The named forms of the library (kDiscoveredLibrary indices), for sparse_regression().
 std::vector<std::pair<std::string, std::vector<std::size_t>>> discovered_named_forms();
 
+/// Whether a contender with a named torque of the state outside the friction family taken out
+/// (discover_term(), step 5) takes that effect's place from the best contender so far: over all
+/// runs its RMS at most the best's and the structure the verdict judges at most
+/// (1 − significance) × the best's (the named form wins a tie; NaN: no).
+bool taken_out_contender_wins(double open_rms, double open_structure, double best_rms,
+                              double best_structure, double significance);
+
 /// Whether the memory terms of the discovered term in `term` (c_f of the lagged friction, c_z of
 /// the Dahl state; a friction's coefficient is negative) carry at least half the friction that
 /// `named` has beyond `without` (that friction taken out), compared at θ̇ = ±`theta_dot_rms`
@@ -171,11 +178,17 @@ struct DiscoveredTermResult {
   /// it: its levels are 0 in `effects`, diagnose() drops its name), or kNone. A friction with
   /// memory is first named by its nearest memoryless form; with each named friction taken out in
   /// turn, the memory terms are tried again, and such a contender wins when it cuts the best
-  /// one's RMS over all runs by significance/2. took_in_tried: the named friction of the tried
-  /// contender with the lowest RMS over all runs, took_in_error_after (kNone, NaN: none tried).
+  /// one's RMS over all runs by significance/2. So too a named torque of the state outside the
+  /// friction family (cogging, gravity, an offset): taken out, the library's and the memory terms'
+  /// regressions on what the model then leaves; such a contender wins when it does no worse over
+  /// all runs and cuts the judged structure (structure_after) by significance (the named form wins
+  /// a tie). took_in_tried: the named effect of the tried contender with the lowest RMS over all
+  /// runs, took_in_error_after (kNone, NaN: none tried).
   EffectKind took_in = EffectKind::kNone;
   EffectKind took_in_tried = EffectKind::kNone;
   double took_in_error_after = std::numeric_limits<double>::quiet_NaN();
+  /// … and that contender's judged structure over all runs (structure_after's measure; NaN: none).
+  double took_in_structure_after = std::numeric_limits<double>::quiet_NaN();
   /// The noise floor given, and the part of the gap to it the term closes,
   /// (error_before − error_after)/(error_before − floor) (NaN without a floor below before).
   double noise_floor = std::numeric_limits<double>::quiet_NaN();
