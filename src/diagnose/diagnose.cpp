@@ -1521,13 +1521,10 @@ void try_refinements(const CandidateFitter& fitter, const RoundStart& start,
     // extra parameters is not all it can find (asymmetric levels 0.027/0.012 V scored 1.3× the
     // Coulomb friction they contain, on a gravity + asymmetric friction dataset).
     std::vector<Effects> from_equation_error;
-    if (spec.take_in != nullptr && !parent_named) {
+    if (!parent_named) {
       const double Effects::*level = effect_spec(parent).parameters[0].member;
       Effects t = e;
-      for (const auto& par : effect_parameters(kind)) {
-        if (par.check != ParameterCheck::kPositiveIfActive) t.*(par.member) = 0.0;
-      }
-      if (spec.take_in(parent, p->effects.*level - fitter.model().effects.*level, t)) {
+      if (start_from_parent_level(kind, parent, p->effects.*level - fitter.model().effects.*level, t)) {
         from_equation_error.push_back(e);
         e = t;
       }
@@ -1544,6 +1541,18 @@ void try_refinements(const CandidateFitter& fitter, const RoundStart& start,
     }
     candidates[at] = std::move(c);
   }
+}
+
+bool start_from_parent_level(EffectKind kind, EffectKind parent, double level_v, Effects& e) {
+  const EffectSpec& spec = effect_spec(kind);
+  if (spec.take_in == nullptr) return false;
+  Effects t = e;
+  for (const auto& par : effect_parameters(kind)) {
+    if (par.check != ParameterCheck::kPositiveIfActive) t.*(par.member) = 0.0;
+  }
+  if (!spec.take_in(parent, level_v, t)) return false;
+  e = t;
+  return true;
 }
 
 std::optional<EffectKind> take_in_parent(EffectKind kind, Effects& e, const std::vector<EffectKind>& named) {
@@ -2176,17 +2185,10 @@ std::vector<PairStart> choose_pairs(const CandidateFitter& fitter, const Reident
   return screened;
 }
 
-Effects without_member(const Effects& e, EffectKind kind) {
-  Effects out = e;
-  const Effects off;
-  for (const auto& p : effect_parameters(kind, true)) out.*(p.member) = off.*(p.member);
-  return out;
-}
-
 /// The settled pair's RMS of each run given with the member `kind` off (NaN for a run not simulated).
-std::vector<double> run_rms_without_member(const CandidateFitter& fitter, const CandidateScore& settled,
+std::vector<double> run_rms_without_effect(const CandidateFitter& fitter, const CandidateScore& settled,
                                            EffectKind kind) {
-  return run_rms_with(fitter.runs_in(), fitter.prepared().all, without_member(settled.effects, kind),
+  return run_rms_with(fitter.runs_in(), fitter.prepared().all, without_effect(settled.effects, kind),
                       settled.scales, fitter.options(), settled.alpha);
 }
 
@@ -2203,16 +2205,13 @@ std::optional<std::size_t> refine_pair_member(const CandidateFitter& fitter, con
     const double Effects::*level = effect_spec(member).parameters[0].member;
     for (EffectKind kind : kAllEffectKinds) {
       const EffectSpec& spec = effect_spec(kind);
-      if (!spec.candidate || !spec.generalises(member) || spec.take_in == nullptr || kind == other ||
+      if (!spec.candidate || !spec.generalises(member) || kind == other ||
           std::find(model.named.begin(), model.named.end(), kind) != model.named.end())
         continue;
       // As try_refinements(): the form's shape from equation error, its levels the member's.
-      Effects e = without_member(base.fit.effects, member);
+      Effects e = without_effect(base.fit.effects, member);
       equation_error_start(kind, torque_residual, fitter.prepared().scales, e);
-      for (const auto& par : effect_parameters(kind)) {
-        if (par.check != ParameterCheck::kPositiveIfActive) e.*(par.member) = 0.0;
-      }
-      if (!spec.take_in(member, base.fit.effects.*level - model.effects.*level, e)) continue;
+      if (!start_from_parent_level(kind, member, base.fit.effects.*level - model.effects.*level, e)) continue;
       PairScore ps;
       ps.kinds = base.kinds;
       ps.kinds[m] = kind;
@@ -2353,8 +2352,8 @@ std::optional<std::size_t> try_pairs(const CandidateFitter& fitter, const Reiden
   // Each member must be needed: the settled pair's RMS over all runs at most (1 − significance/2)
   // × that of the same model with the member off (a joint fit can carry a passenger that moved
   // nothing: EMPS's offset + a saturation at 4.06 V, the RMS the same to 16 digits without it).
-  const std::array<std::vector<double>, 2> run_without = {run_rms_without_member(fitter, s, ps.kinds[0]),
-                                                          run_rms_without_member(fitter, s, ps.kinds[1])};
+  const std::array<std::vector<double>, 2> run_without = {run_rms_without_effect(fitter, s, ps.kinds[0]),
+                                                          run_rms_without_effect(fitter, s, ps.kinds[1])};
   const std::array<double, 2> without = {pooled_rms(fitter.runs_in(), run_without[0], fitter.prepared().all),
                                          pooled_rms(fitter.runs_in(), run_without[1], fitter.prepared().all)};
   const auto needed = [&](std::size_t m) {
@@ -2374,7 +2373,7 @@ std::optional<std::size_t> try_pairs(const CandidateFitter& fitter, const Reiden
     why += ")";
     CandidateScore alone = s;
     alone.effect = ps.kinds[keep];
-    alone.effects = without_member(s.effects, ps.kinds[drop]);
+    alone.effects = without_effect(s.effects, ps.kinds[drop]);
     alone.error_after = without[drop];
     alone.run_error_after = run_without[drop];
     const CandidateScore s1 = settle_winner(fitter, alone, {ps.kinds[keep]});

@@ -399,6 +399,13 @@ void cross_validate_lowest(const CandidateFitter& fitter, std::vector<CandidateS
 std::optional<EffectKind> take_in_parent(EffectKind kind, Effects& e,
                                          const std::vector<EffectKind>& named);
 
+/// A generalisation `kind` started where its parent ended: in `e`, `kind`'s levels (its parameters
+/// but the shape ones, ParameterCheck::kPositiveIfActive, which keep their equation-error start)
+/// set to 0, then the level `level_v` of `parent` taken in (EffectSpec::take_in). False, `e`
+/// unchanged, when the form has no such start for `parent` (try_refinements(),
+/// refine_pair_member()).
+bool start_from_parent_level(EffectKind kind, EffectKind parent, double level_v, Effects& e);
+
 /// `other` is a sibling form of `kind`: another generalisation of the same effect (Stribeck and
 /// asymmetric friction, both of Coulomb friction). Their extra parts are of other variables (the
 /// speed, the direction), so a joint may have both: a named sibling is a way in for `kind`, as
@@ -615,8 +622,6 @@ std::optional<std::size_t> try_pairs(const CandidateFitter& fitter, const Reiden
 std::optional<std::size_t> refine_pair_member(const CandidateFitter& fitter, const TorqueResidual& torque_residual,
                                               DiagnoseRound& rd, std::size_t best);
 
-/// `e` with the parameters of `kind` at their defaults (the effect off).
-Effects without_member(const Effects& e, EffectKind kind);
 /// The RMS of each run given [position unit] of `settled`'s model (effects, factors, α-model)
 /// with the effect `kind` off (NaN for a run not simulated; pooled_rms() pools them).
 std::vector<double> run_rms_without_member(const CandidateFitter& fitter, const CandidateScore& settled,

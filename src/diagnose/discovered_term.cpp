@@ -792,6 +792,16 @@ DiscoveredTermResult discover_term(const std::vector<DiagnoseRun>& fit_runs,
   // from the base's α-model. It takes the named friction's place only when it cuts the RMS over
   // all runs of the best contender so far, which keeps it, by significance/2 (the named form wins
   // a tie). `best` is set here: the library's or the memory terms' contender ran (above).
+  // (The tried contender of lowest RMS over all runs is reported, steps 4 and 5; NaN: its fit
+  // failed.)
+  const auto note_tried = [&res](EffectKind k, const Fitted& open) {
+    if (res.took_in_tried == EffectKind::kNone ||
+        (std::isfinite(open.error_after) && !(res.took_in_error_after <= open.error_after))) {
+      res.took_in_tried = k;
+      res.took_in_error_after = open.error_after;
+      res.took_in_structure_after = open.structure_after;
+    }
+  };
   if (memory_on) {
     for (EffectKind k : kAllEffectKinds) {
       const EffectSpec& spec = effect_spec(k);
@@ -805,13 +815,7 @@ DiscoveredTermResult discover_term(const std::vector<DiagnoseRun>& fit_runs,
       // (from the base's α-model only: with it identified again the case of
       // DiscoverTermEndToEnd took 178 s instead of 70)
       Fitted open = fit_contender(open_regression, open_memory, named_open, false);
-      // (the tried one with the lowest RMS is reported; NaN: its fit failed)
-      if (res.took_in_tried == EffectKind::kNone ||
-          (std::isfinite(open.error_after) && !(res.took_in_error_after <= open.error_after))) {
-        res.took_in_tried = k;
-        res.took_in_error_after = open.error_after;
-        res.took_in_structure_after = open.structure_after;
-      }
+      note_tried(k, open);
       // … and only when its memory terms carry at least half the friction taken out (friction
       // opposes motion: a memory coefficient of a friction is negative), the level compared at
       // θ̇ = ±θ̇_rms: it is that friction with memory, not the friction re-described by the
@@ -836,12 +840,13 @@ DiscoveredTermResult discover_term(const std::vector<DiagnoseRun>& fit_runs,
   // from the base's α-model. It takes the effect's place only when, over all runs, it does no worse
   // than the best contender so far and cuts what the verdict judges by significance: the named
   // form wins a tie (a cogging the library's slow functions of θ cannot make never loses one).
+  // (A winner is finite in both: `best` stays so.)
   for (EffectKind k : kAllEffectKinds) {
+    if (!std::isfinite(best.error_after) || !std::isfinite(best.structure_after)) break;
     const EffectSpec& spec = effect_spec(k);
     if (spec.role != EffectRole::kTorque || !spec.candidate || k == EffectKind::kCoulombFriction ||
         spec.generalises(EffectKind::kCoulombFriction) || !spec.active(base.effects))
       continue;
-    if (!std::isfinite(best.error_after) || !std::isfinite(best.structure_after)) break;
     const Effects named_open = diagnose_detail::without_effect(base.effects, k);
     const diagnose_detail::TorqueResidual tr_open = residual_of(named_open, base.scales, base.alpha);
     Fitted open;
@@ -853,11 +858,7 @@ DiscoveredTermResult discover_term(const std::vector<DiagnoseRun>& fit_runs,
       if (m.error_after < open.error_after) open = std::move(m);
     }
     if (!std::isfinite(open.error_after)) continue;
-    if (res.took_in_tried == EffectKind::kNone || !(res.took_in_error_after <= open.error_after)) {
-      res.took_in_tried = k;
-      res.took_in_error_after = open.error_after;
-      res.took_in_structure_after = open.structure_after;
-    }
+    note_tried(k, open);
     if (taken_out_contender_wins(open.error_after, open.structure_after, best.error_after, best.structure_after,
                                  opt.significance)) {
       best = std::move(open);

@@ -21,8 +21,8 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 /// n̂(t_k) = (θ̈ + C·θ̇)/β̃ − u at every sample of `d` (C, β̃ from the simulation `s` of the
-/// model, the run's recorded command replayed; θ̇, θ̈ of the measured θ by local quadratics over ±10 ms); `valid` false in the first
-/// and last 20 ms (one-sided fits) and where n̂ is not finite.
+/// model, the run's recorded command replayed; θ̇, θ̈ of the measured θ by local quadratics over
+/// ±10 ms); `valid` false in the first and last 20 ms (one-sided fits) and where n̂ is not finite.
 void run_torque_residual(const RunData& d, const SimulationResult& s, const Effects& effects,
                          std::vector<double>& n_hat, std::vector<bool>& valid,
                          std::vector<double>& dth) {
