@@ -130,6 +130,7 @@ def main():
     ap.add_argument("--free-seeds", type=int, default=None,
                     help="effect-free datasets, seeds from the first of --seeds (default: one per seed)")
     ap.add_argument("-o", "--out", help="write the Markdown here too")
+    ap.add_argument("--keep", help="keep the pairs' datasets in this folder (default: a temporary one)")
     args = ap.parse_args()
     bins = {b: os.path.join(args.build, "apps", b, b) for b in ("omni_fit", "omni_gen")}
     for b in bins.values():
@@ -169,7 +170,11 @@ def main():
         chosen = pairs[::step][: args.pairs]
         t0 = time.time()
         with tempfile.TemporaryDirectory() as tmp, ThreadPoolExecutor(args.jobs) as pool:
-            res = list(pool.map(lambda p: pair_case(args, bins, first[p[0]], first[p[1]], tmp), chosen))
+            where = tmp
+            if args.keep:
+                os.makedirs(args.keep, exist_ok=True)
+                where = args.keep
+            res = list(pool.map(lambda p: pair_case(args, bins, first[p[0]], first[p[1]], where), chosen))
         both = stated = 0
         rows = ["| hidden | named (in order) | not separable (from) | verdict | RMS before → after [rad] | s |",
                 "|---|---|---|---|---|---|"]

@@ -6,7 +6,8 @@ invented_effects.cpp, outside the effect table and the discovered term's library
 generates the 10-run one-pose dataset (`omni_gen paper --pose`, the bundled Coulomb friction off,
 so the invented effect is alone), runs `omni_fit diagnose --json` on it and prints one row:
 the effects named, the verdict, the discovered term (kept?, its reading, the gap it closes) and
-the overall cut of the gap to the noise floor. A case passes when no named effect is claimed as
+the overall cut of the gap to the noise floor, and the friction level fitted run by run
+(run_levels.hpp: whether it differs between runs, held out in time). A case passes when no named effect is claimed as
 the whole story (the verdict says structure remains, or the discovered term carries it) and the
 discovered term closes >= 50 % of the gap it was given.
 
@@ -42,6 +43,18 @@ def run_case(bin_dir, out, kind, spec, seed):
     return j
 
 
+def levels_text(rl):
+    """The friction level fitted run by run (run_levels.hpp): not tried, or whether it varies,
+    the held-out RMS before -> after and the factors' range."""
+    if not rl:
+        return "not tried"
+    if not rl.get("ok"):
+        return "not usable"
+    cut = 1.0 - rl["held_out_after"] / rl["held_out_before"] if rl.get("held_out_before") else float("nan")
+    return (f"{'varies' if rl['varies'] else 'does not vary'} (held out {100 * cut:+.0f} %, "
+            f"x {rl['factor_min']:.2f}-{rl['factor_max']:.2f})")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--bin", default="build/release")
@@ -53,8 +66,8 @@ def main():
     rows, passed, passed_structure = [], 0, 0
     print("| invented | seed | named | verdict | discovered (kept) | reading | gap closed by it | "
           "RMS before -> after | overall gap cut | judged structure before -> after (gap closed) | "
-          "pass (whole RMS) | pass (judged structure) |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+          "pass (whole RMS) | pass (judged structure) | friction level run by run |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for kind in a.kinds:
         for seed in a.seeds:
             j = run_case(a.bin, a.out, kind, KINDS[kind], seed)
@@ -80,7 +93,8 @@ def main():
                   f"{100 * overall:.0f} % | "
                   f"{'-' if sb is None else f'{sb:.3g} -> {sa:.3g}'} "
                   f"({'-' if sgap is None else f'{100 * sgap:.0f} %'}) | "
-                  f"{'yes' if ok else 'no'} | {'yes' if ok_structure else 'no'} |", flush=True)
+                  f"{'yes' if ok else 'no'} | {'yes' if ok_structure else 'no'} | {levels_text(j.get('run_levels'))} |",
+                  flush=True)
             passed_structure += ok_structure
             rows.append(j)
     print(f"\n{passed} of {len(rows)} cases pass on the whole RMS, {passed_structure} on the judged structure")

@@ -16,6 +16,7 @@
 #include "alphainv/diagnose/diagnose_report.hpp"
 #include "alphainv/diagnose/diagnosed_model_file.hpp"
 #include "alphainv/diagnose/discovered_term.hpp"
+#include "alphainv/diagnose/run_levels.hpp"
 #include "alphainv/identify/fit_model_file.hpp"
 #include "alphainv/error.hpp"
 #include "alphainv/data/model_file.hpp"
@@ -108,6 +109,28 @@ nlohmann::json result_json(const DiagnoseResult& res) {
                        {"message", res.discovered->message}};
   }
   j["named"] = named;
+  // The friction level run by run (run_levels.hpp; null: not tried): whether it differs between
+  // runs (held out in time), each run's factor on the model's level, and what that changes.
+  if (res.run_levels) {
+    const RunLevelsResult& rl = *res.run_levels;
+    nlohmann::json runs = nlohmann::json::array();
+    for (const RunLevel& r : rl.runs) {
+      runs.push_back({{"run", r.name}, {"factor", num(r.factor)}, {"standard_error", num(r.standard_error)},
+                      {"rms_before", num(r.rms_before)}, {"rms_after", num(r.rms_after)}});
+    }
+    j["run_levels"] = {{"ok", rl.ok}, {"varies", rl.varies}, {"message", rl.message},
+                       {"report", rl.brief_report()},
+                       {"held_out_before", num(rl.held_out_before)}, {"held_out_after", num(rl.held_out_after)},
+                       {"error_before", num(rl.error_before)}, {"error_after", num(rl.error_after)},
+                       {"structure_before", num(rl.structure_before)}, {"structure_after", num(rl.structure_after)},
+                       {"fundamental_before", num(rl.fundamental_before)},
+                       {"fundamental_after", num(rl.fundamental_after)},
+                       {"gap_closed", num(rl.gap_closed)}, {"structure_gap_closed", num(rl.structure_gap_closed)},
+                       {"factor_min", num(rl.factor_min)}, {"factor_max", num(rl.factor_max)},
+                       {"runs", runs}, {"seconds", num(rl.seconds)}};
+  } else {
+    j["run_levels"] = nullptr;
+  }
   // The verdict on the final model against the noise floor estimated from the data.
   j["verdict"] = verdict_name(res.verdict.verdict);
   j["noise_floor"] = num(res.noise_floor.rms);
@@ -353,6 +376,7 @@ int run_diagnose(const DiagnoseCommandOptions& o) {
     if (res.discovered) std::printf("  %s\n", res.discovered->brief_report().c_str());
     if (res.discovered && res.discovered->kept)
       std::printf("  %s\n", discovered_verdict_text(*res.discovered).c_str());
+    if (res.run_levels) std::printf("  friction level run by run: %s\n", res.run_levels->brief_report().c_str());
     for (const NotSeparable& n : res.not_separable) std::printf("  not separable: %s\n", n.message.c_str());
     for (const DroppedEffect& x : res.dropped) std::printf("  dropped: %s\n", x.message.c_str());
   }

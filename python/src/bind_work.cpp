@@ -15,6 +15,7 @@
 #include "alphainv/diagnose/diagnose_report.hpp"
 #include "alphainv/diagnose/diagnosed_model_file.hpp"
 #include "alphainv/diagnose/discovered_term.hpp"
+#include "alphainv/diagnose/run_levels.hpp"
 #include "alphainv/diagnose/verdict.hpp"
 #include "alphainv/diagnose/effect_refinement.hpp"
 #include "alphainv/identify/fit_model_file.hpp"
@@ -367,6 +368,7 @@ struct DiagnoseOutcome {
     d["not_separable"] = not_separable();
     d["dropped"] = dropped();
     d["named"] = named(), d["verdict"] = verdict(), d["discovered"] = discovered();
+    d["run_levels"] = run_levels();
     d["report"] = result.full_report();
     return d;
   }
@@ -429,6 +431,27 @@ struct DiagnoseOutcome {
     d["took_in_tried"] = name_or_none(t.took_in_tried);
     d["took_in_error_after"] = num(t.took_in_error_after);
     d["took_in_structure_after"] = num(t.took_in_structure_after);
+    return d;
+  }
+  /// The friction level fitted run by run (run_levels.hpp); None when not tried.
+  py::object run_levels() const {
+    if (!result.run_levels) return py::none();
+    const RunLevelsResult& t = *result.run_levels;
+    py::dict d;
+    d["ok"] = t.ok, d["varies"] = t.varies, d["message"] = t.message, d["report"] = t.brief_report();
+    d["held_out_before"] = num(t.held_out_before), d["held_out_after"] = num(t.held_out_after);
+    d["error_before"] = num(t.error_before), d["error_after"] = num(t.error_after);
+    d["structure_before"] = num(t.structure_before), d["structure_after"] = num(t.structure_after);
+    d["gap_closed"] = num(t.gap_closed), d["structure_gap_closed"] = num(t.structure_gap_closed);
+    d["factor_min"] = num(t.factor_min), d["factor_max"] = num(t.factor_max);
+    py::list runs;
+    for (const RunLevel& r : t.runs) {
+      py::dict x;
+      x["run"] = r.name, x["factor"] = num(r.factor), x["standard_error"] = num(r.standard_error);
+      x["rms_before"] = num(r.rms_before), x["rms_after"] = num(r.rms_after);
+      runs.append(x);
+    }
+    d["runs"] = runs;
     return d;
   }
   /// DiagnoseResult::not_separable: the candidates the data cannot tell from the named effects.
@@ -684,6 +707,11 @@ the residual concentrates, the model with the effects folded in, the reports.)")
                              "the discovered term (None: not tried): kept, equation, reading, terms, "
                              "error_before, error_after, gap_closed, carries_remainder, took_in (the named friction "
                              "whose place it took, or None), took_in_tried, took_in_error_after, took_in_structure_after, message")
+      .def_property_readonly("run_levels", &DiagnoseOutcome::run_levels,
+                             "the friction level fitted run by run (None: not tried): ok, varies (it differs "
+                             "between runs, held out in time), report, held_out_before/after, error_before/after, "
+                             "structure_before/after, gap_closed, structure_gap_closed, factor_min/max, runs "
+                             "(dicts of run, factor, standard_error, rms_before, rms_after), message")
       .def_property_readonly("dropped", &DiagnoseOutcome::dropped,
                              "effects the rounds named that the model did without in the end (backward "
                              "elimination): dicts of effect, score_with, score_without, message")

@@ -1,5 +1,6 @@
 #include "alphainv/diagnose/diagnose_report.hpp"
 #include "alphainv/diagnose/discovered_term.hpp"
+#include "alphainv/diagnose/run_levels.hpp"
 #include "diagnose_stages.hpp"
 
 #include <algorithm>
@@ -262,6 +263,7 @@ std::string DiagnoseResult::full_report() const {
     }
   }
   if (discovered) s << "Discovered term: " << discovered->full_report();
+  if (run_levels) s << "Friction level run by run: " << run_levels->full_report();
   s << "Before:\n";
   for (const auto& f : before.findings) s << "  - " << f << "\n";
   s << "After:\n";
@@ -378,6 +380,19 @@ std::string diagnose_report_markdown(const DiagnoseResult& r, const std::vector<
         s << "| " << t.name << " | " << t.formula << " | " << fmt(t.coefficient) << " | "
           << fmt(t.standard_error) << " | " << fmt(t.regression_coefficient) << " | "
           << fmt(t.regression_standard_error) << " |\n";
+      s << "\n";
+    }
+  }
+  if (r.run_levels && r.run_levels->ok) {
+    const RunLevelsResult& rl = *r.run_levels;
+    s << "## The friction level run by run\n\nStructure remained: the model's friction level was "
+         "fitted run by run on one half of each fit window and judged on the other (run_levels.hpp).\n\n"
+      << rl.brief_report() << "\n\n";
+    if (rl.varies) {
+      s << "| run | level × | ± SE | RMS before | RMS after |\n|---|---|---|---|---|\n";
+      for (const RunLevel& x : rl.runs)
+        s << "| " << x.name << " | " << fmt(x.factor) << " | " << fmt(x.standard_error) << " | "
+          << fmt(x.rms_before) << " | " << fmt(x.rms_after) << " |\n";
       s << "\n";
     }
   }

@@ -65,6 +65,13 @@ struct TorqueResidual {
   std::vector<double> damping_torque, plant_input;
 };
 
+/// `run` simulated with its model changed by diagnosed_model() (effects `e`, factors `scales`,
+/// the α-model `alpha` or the run's own), from its measured start with its command history.
+SimulationResult simulate_diagnosed_run(const DiagnoseRun& run, const Effects& e,
+                                        const ModelScales& scales,
+                                        const std::optional<AlphaModel>& alpha,
+                                        const SimulationOptions& simulation);
+
 /// The residuals θ − θ_sim of `sims` (one per run; empty for a failed run: left out) as the
 /// verdict reads them.
 std::vector<ResidualSeries> residual_series(const std::vector<DiagnoseRun>& runs,

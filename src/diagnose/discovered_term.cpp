@@ -456,12 +456,7 @@ void DiscoveredTermOptions::validate() const {
 
 namespace {
 
-SimulationResult simulate_with(const DiagnoseRun& run, const Effects& e, const ModelScales& sc,
-                               const std::optional<AlphaModel>& alpha, const SimulationOptions& so) {
-  const RunData& d = *run.data;
-  const InitialState x0 = initial_state_of(d, run.start, run.command_history);
-  return simulate_recorded_run(diagnosed_model(run.model, e, sc, alpha), run.controller, d, x0, so);
-}
+using diagnose_detail::simulate_diagnosed_run;
 
 /// Over all runs: the RMS of θ − θ_sim over all samples (a failed run: infinity) and the
 /// structure the verdict judges (verdict.hpp structure_rms(); NaN when a run failed).
@@ -474,7 +469,7 @@ OverAll error_over(const std::vector<DiagnoseRun>& runs, const Effects& e, const
   std::vector<double> ss(runs.size(), 0.0);
   std::vector<std::vector<double>> thetas(runs.size());
   common::parallel_for(runs.size(), opt.threads, [&](std::size_t i) {
-    SimulationResult s = simulate_with(runs[i], e, sc, alpha, opt.simulation);
+    SimulationResult s = simulate_diagnosed_run(runs[i], e, sc, alpha, opt.simulation);
     const RunData& d = *runs[i].data;
     if (!s.ok || s.theta.size() != d.size()) {
       ss[i] = kInf;
@@ -537,7 +532,7 @@ DiscoveredTermResult discover_term(const std::vector<DiagnoseRun>& fit_runs,
   auto residual_of = [&](const Effects& named, const ModelScales& ms, const std::optional<AlphaModel>& a) {
     std::vector<SimulationResult> sims(fit_runs.size());
     common::parallel_for(fit_runs.size(), opt.threads, [&](std::size_t i) {
-      sims[i] = simulate_with(fit_runs[i], named, ms, a, opt.simulation);
+      sims[i] = simulate_diagnosed_run(fit_runs[i], named, ms, a, opt.simulation);
     });
     return diagnose_detail::torque_residual(fit_runs, which, sims, named);
   };

@@ -163,6 +163,8 @@ def test_diagnose_names_a_hidden_offset_torque():
         assert x["effect"] not in d.effects_named and x["effect"] in x["message"]
         assert not x["score_with"] <= 0.9 * x["score_without"]
     assert d.to_dict()["dropped"] == d.dropped
+    # structure remains, but the model has no friction level to fit run by run: not tried
+    assert d.run_levels is None and d.to_dict()["run_levels"] is None
 
 
 def test_diagnose_gives_the_discovered_term_that_carries_a_friction_no_candidate_has(small):
@@ -183,3 +185,10 @@ def test_diagnose_gives_the_discovered_term_that_carries_a_friction_no_candidate
     assert x["took_in_tried"] is None and x["took_in_error_after"] is None  # (none was tried)
     assert x["took_in_structure_after"] is None
     assert d.to_dict()["discovered"] == x
+    # the term's level (sigma) fitted run by run when structure remains: one level for every run
+    # of this plant (it has one), so it does not vary
+    rl = d.run_levels
+    assert (rl is None) == (d.verdict["verdict"] == "explained")
+    if rl is not None:
+        assert rl["ok"] and not rl["varies"] and len(rl["runs"]) > 0 and d.to_dict()["run_levels"] == rl
+        assert all(abs(r["factor"] - 1.0) < 0.5 for r in rl["runs"])

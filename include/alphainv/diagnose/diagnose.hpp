@@ -42,6 +42,9 @@
 ///    discovered term for the rest (discovered_term.hpp), kept when it cuts the RMS over all runs.
 /// 6. The verdict (verdict.hpp): a noise floor estimated from the data, and whether the residual
 ///    of the final model is explained to it or where structure remains, and how big.
+/// 7. With DiagnoseOptions::run_levels, when structure remains and the model has a friction
+///    level: that level fitted run by run (run_levels.hpp), and when it varies between runs, said
+///    as a part of the structure that remains (a level that drifts between runs).
 /// Offline; never throws on what the data cannot support: the result says.
 
 #include <array>
@@ -65,6 +68,7 @@
 namespace alphainv {
 
 struct DiscoveredTermResult;  // discovered_term.hpp
+struct RunLevelsResult;       // run_levels.hpp
 
 /// Factors on the model's coefficients, fitted together with an effect: c[n] multiplies C_n (the
 /// α-model's value at breakpoint n, eq. (38); a linear model has c[0] only) and beta[j] multiplies
@@ -118,6 +122,9 @@ struct DiagnoseOptions {
   /// (discovered_term.hpp) fitted by sparse regression and output error, kept when it cuts the
   /// RMS over all runs by significance/2.
   bool discover = true;
+  /// At the end, when structure remains and the model has a friction level: the level fitted run
+  /// by run (run_levels.hpp); when it varies between runs, the verdict's unexplained parts say so.
+  bool run_levels = true;
   /// After the rounds, with two or more effects named: each checked again against the model
   /// without it (DiagnoseResult::dropped), the one that no longer earns its place dropped; when
   /// one was dropped and structure remains, the rounds run once more in the place it freed,
@@ -376,6 +383,10 @@ struct DiagnoseResult {
   /// (its `kept`; kept: in `effects`; effects_named lists the catalogue's named effects only);
   /// nullptr: not tried (explained, not usable, or switched off).
   std::shared_ptr<const DiscoveredTermResult> discovered;
+  /// The friction level fitted run by run (DiagnoseOptions::run_levels; run_levels.hpp); when it
+  /// varies, verdict.unexplained has a part "runs: the friction level differs …"; nullptr: not
+  /// tried (explained, no friction level, or switched off).
+  std::shared_ptr<const RunLevelsResult> run_levels;
   /// The last round's candidates the data cannot tell from the named effects (separability.hpp):
   /// not named, and not ruled out either.
   std::vector<NotSeparable> not_separable;
