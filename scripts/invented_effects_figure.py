@@ -51,7 +51,7 @@ def levels_text(rl):
     if not rl.get("ok"):
         return "not usable"
     cut = 1.0 - rl["held_out_after"] / rl["held_out_before"] if rl.get("held_out_before") else float("nan")
-    return (f"{'varies' if rl['varies'] else 'does not vary'} (held out {100 * cut:+.0f} %, "
+    return (f"{'varies' if rl['varies'] else 'does not vary'} (held out {-100 * cut:+.0f} %, "
             f"x {rl['factor_min']:.2f}-{rl['factor_max']:.2f})")
 
 

@@ -247,8 +247,9 @@ std::string RunLevelsResult::brief_report() const {
       os << " (judged structure " << num(100.0 * structure_gap_closed, "%.0f") << " %)";
     os << "; no one model carries it to a new run: a level that changes between runs "
           "(temperature, wear, lubrication, a condition that differs by run) or a friction whose "
-          "form depends on the run's speed in a way the model lacks (the factors are relative to "
-          "an alpha-model fitted on these runs: that they differ is the finding, not by how much)";
+          "form the model lacks, acting differently at each run's speed and frequency (the factors "
+          "are relative to an alpha-model fitted on these runs: that they differ is the finding, "
+          "not by how much)";
   } else {
     os << message;
   }

@@ -26,8 +26,8 @@
 /// the factors say THAT the runs differ, not by how much (docs/diagnose.md: on the invented drift
 /// they do not follow the generator's; identifying the α-model again with each run's level made
 /// the fit worse and was left out). Nor does it tell a level that drifts from a friction whose
-/// form depends on speed in a way the model lacks (each run has its own speed range): the words
-/// say both. With runs made by the model itself and a level per run, the factors are exact
+/// form the model lacks and that acts differently at each run's speed and frequency (the invented
+/// frictional lag, seed 31, varies: 0-2.9 ×): the words say both. With runs made by the model itself and a level per run, the factors are exact
 /// (tests/diagnose/test_run_levels.cpp). The finding is structure the model cannot carry to a
 /// new run: the verdict stays "structure remains" and says it.
 /// Offline; never throws on what the data cannot support: the result says.
