@@ -2849,6 +2849,7 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
   // α-model given, 0.0098 with it identified again). With d̂ known it is identified again, and
   // kept when the RMS over all runs drops. (Every run, also those d̂ was not located in: without
   // that dataset's 3 Hz run, near the loop's resonance, where nothing was located, 0.0188.)
+  std::string alpha_again_note;  // (said again when a provisional d̂ is judged after the rounds)
   if (with_d && reid.usable()) {
     if (const std::optional<AlphaModel> a = reid.fit(model.effects)) {
       const double given = error_over_runs(
@@ -2858,8 +2859,9 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
       if (again < given) {
         model.alpha = a;
         model.scales = prepared.unit_scales;
-        res.disturbance.message += "; the alpha-model identified again with it known (RMS over all runs " +
-                                   num(given, "%.4g") + " -> " + num(again, "%.4g") + ")";
+        alpha_again_note = "; the alpha-model identified again with it known (RMS over all runs " +
+                           num(given, "%.4g") + " -> " + num(again, "%.4g") + ")";
+        res.disturbance.message += alpha_again_note;
       }
     }
   }
@@ -3092,7 +3094,8 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
     }
     res.disturbance.message = "located in time, significant " + judged + " (with the model given " +
                               num(res.disturbance.error_before, "%.4g") + " -> " +
-                              num(res.disturbance.error_after, "%.4g") + ": masked by them)";
+                              num(res.disturbance.error_after, "%.4g") + ": masked by them)" +
+                              alpha_again_note;
     res.disturbance.named = true;
     res.disturbance.touched_before = judged_again.touched_before;
     res.disturbance.touched_after = judged_again.touched_after;
