@@ -2848,12 +2848,12 @@ DiagnoseResult diagnose_with_disturbance(const std::vector<DiagnoseRun>& runs_gi
   // that (a cogging + pulses dataset, seed 41: RMS over all runs 0.0115 with d̂ known and the
   // α-model given, 0.0098 with it identified again). With d̂ known it is identified again, and
   // kept when the RMS over all runs drops. (Every run, also those d̂ was not located in: without
-  // that dataset's 3 Hz run, near the loop's resonance, where nothing was located, 0.0188.)
+  // that dataset's 3 Hz run, near the loop's resonance, where nothing was located, 0.0188.) The
+  // RMS with the α-model given and d̂ known is the stage's check (its error_after: the same model).
   std::string alpha_again_note;  // (said again when a provisional d̂ is judged after the rounds)
   if (with_d && reid.usable()) {
     if (const std::optional<AlphaModel> a = reid.fit(model.effects)) {
-      const double given = error_over_runs(
-          runs_in, simulate_diagnosed(runs_in, model.effects, model.scales, opt.simulation, opt.threads, model.alpha));
+      const double given = res.disturbance.error_after;
       const double again = error_over_runs(
           runs_in, simulate_diagnosed(runs_in, model.effects, prepared.unit_scales, opt.simulation, opt.threads, a));
       if (again < given) {

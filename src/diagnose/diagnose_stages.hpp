@@ -604,7 +604,7 @@ std::vector<PairStart> choose_pairs(const CandidateFitter& fitter, const Reident
 /// cuts the error over all runs by significance/2. Writes rd.pairs; returns the index of the
 /// named pair (then *settled is its settled fit), nullopt when none.
 /// Each member of the named pair must be needed: the settled pair's RMS over all runs at most
-/// (1 − significance/2) × its pooled run_rms_without_member(); otherwise the member whose removal
+/// (1 − significance/2) × its pooled run_rms_without_effect(); otherwise the member whose removal
 /// costs least is dropped (PairScore::dropped) and the other named alone when, settled alone from
 /// the pair's values, it passes fails_all_runs(); with `on_trial_allowed`, also when it fails only
 /// the `none` refit (not_below_before() passes): then on trial, rd.on_trial_reference_rms set.
@@ -631,7 +631,7 @@ std::optional<std::size_t> refine_pair_member(const CandidateFitter& fitter, con
 
 /// The RMS of each run given [position unit] of `settled`'s model (effects, factors, α-model)
 /// with the effect `kind` off (NaN for a run not simulated; pooled_rms() pools them).
-std::vector<double> run_rms_without_member(const CandidateFitter& fitter, const CandidateScore& settled,
+std::vector<double> run_rms_without_effect(const CandidateFitter& fitter, const CandidateScore& settled,
                                            EffectKind kind);
 
 /// One round with the model `model`: candidates of `catalogue` (`none` first) searched, fitted,

@@ -189,11 +189,6 @@ RunLevelsResult fit_run_levels(const std::vector<std::pair<DiagnoseRun, Diagnose
   res.held_out_before = std::sqrt(s1 / c);
   res.held_out_after = std::sqrt(s2 / c);
   res.runs.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    res.runs[i].name = whole[i].name;
-    res.runs[i].factor = fits[i].factor;
-    res.runs[i].standard_error = fits[i].standard_error;
-  }
   double sb = 0.0, sa = 0.0, m = 0.0;
   for (std::size_t i = 0; i < n; ++i) {
     if (!std::isfinite(sse_b[i]) || !std::isfinite(sse_a[i])) {
@@ -201,6 +196,9 @@ RunLevelsResult fit_run_levels(const std::vector<std::pair<DiagnoseRun, Diagnose
       return done();
     }
     const double cnt = static_cast<double>(whole[i].data->size());
+    res.runs[i].name = whole[i].name;
+    res.runs[i].factor = fits[i].factor;
+    res.runs[i].standard_error = fits[i].standard_error;
     res.runs[i].rms_before = std::sqrt(sse_b[i] / cnt);
     res.runs[i].rms_after = std::sqrt(sse_a[i] / cnt);
     sb += sse_b[i];

@@ -27,9 +27,10 @@
 /// they do not follow the generator's; identifying the α-model again with each run's level made
 /// the fit worse and was left out). Nor does it tell a level that drifts from a friction whose
 /// form the model lacks and that acts differently at each run's speed and frequency (the invented
-/// frictional lag, seed 31, varies: 0-2.9 ×): the words say both. With runs made by the model itself and a level per run, the factors are exact
-/// (tests/diagnose/test_run_levels.cpp). The finding is structure the model cannot carry to a
-/// new run: the verdict stays "structure remains" and says it.
+/// frictional lag, seed 31, varies: 0-2.9 ×): the words say both. With runs made by the model
+/// itself and a level per run, the factors are exact (tests/diagnose/test_run_levels.cpp). The
+/// finding is structure the model cannot carry to a new run: the verdict stays "structure
+/// remains" and says it.
 /// Offline; never throws on what the data cannot support: the result says.
 
 #include <cstddef>
@@ -76,14 +77,14 @@ struct RunLevel {
 struct RunLevelsResult {
   bool ok = false;      ///< usable: the model has a level and the fits ran
   std::string message;  ///< why not usable, or why the levels do not vary
-  /// The run-by-run levels predict the held-out halves better by the significance (step 2).
+  /// The run-by-run levels predict the held-out halves better by the significance (step 3).
   bool varies = false;
-  std::vector<RunLevel> runs;  ///< step 3, in the order of the runs given
+  std::vector<RunLevel> runs;  ///< step 2, in the order of the runs given
   /// RMS over the held-out halves [position unit]: the one model's (f = 1) and the run-by-run
   /// levels' (each fitted on the other half).
   double held_out_before = std::numeric_limits<double>::quiet_NaN();
   double held_out_after = std::numeric_limits<double>::quiet_NaN();
-  /// Over the whole runs given (step 3) [position unit]: the RMS, the judged structure and the
+  /// Over the whole runs given (step 4) [position unit]: the RMS, the judged structure and the
   /// sine runs' median error at the fundamental, with the model's level and with each run's.
   double error_before = std::numeric_limits<double>::quiet_NaN();
   double error_after = std::numeric_limits<double>::quiet_NaN();
