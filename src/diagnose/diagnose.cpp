@@ -163,13 +163,16 @@ TorqueResidual torque_residual(const std::vector<DiagnoseRun>& runs,
     const KnownInputSeries known = KnownInputSeries::of_run(d);
     std::vector<double> dth, ddth;
     local_quadratic_derivatives(d.t, d.theta, 0.01, dth, ddth);
+    // (a discovered term's memory terms along the record: effect_torque() has no state)
+    std::vector<double> memory(discovered_memory_active(current) ? d.size() : 0);
+    discovered_memory_torque_along(current, d.t.data(), dth.data(), memory.size(), memory.data());
     // Skip the first and last 20 ms (one-sided fits) of each run.
     for (std::size_t k = 0; k < d.size(); ++k) {
       if (d.t[k] - d.t.front() < 0.02 || d.t.back() - d.t[k] < 0.02) continue;
       const double bt = s.beta_tilde[k];
       if (!(bt > 0.0)) continue;
-      const double u =
-          plant_input(current, d.t[k], d.v[k], d.theta[k], dth[k], known.at_sample(k));
+      const double u = plant_input(current, d.t[k], d.v[k], d.theta[k], dth[k], known.at_sample(k)) +
+                       (memory.empty() ? 0.0 : memory[k]);
       const double n = (ddth[k] + s.damping[k] * dth[k]) / bt - u;
       if (!std::isfinite(n)) continue;
       tr.n_hat.push_back(n);

@@ -32,11 +32,14 @@ void run_torque_residual(const RunData& d, const SimulationResult& s, const Effe
   local_quadratic_derivatives(d.t, d.theta, 0.01, dth, ddth);
   if (!s.ok || s.damping.size() != d.size()) return;
   const KnownInputSeries known = KnownInputSeries::of_run(d);
+  std::vector<double> memory(discovered_memory_active(effects) ? d.size() : 0);  // (no state in plant_input)
+  discovered_memory_torque_along(effects, d.t.data(), dth.data(), memory.size(), memory.data());
   for (std::size_t k = 0; k < d.size(); ++k) {
     if (d.t[k] - d.t.front() < 0.02 || d.t.back() - d.t[k] < 0.02) continue;
     const double bt = s.beta_tilde[k];
     if (!(bt > 0.0)) continue;
-    const double u = plant_input(effects, d.t[k], d.v[k], d.theta[k], dth[k], known.at_sample(k));
+    const double u = plant_input(effects, d.t[k], d.v[k], d.theta[k], dth[k], known.at_sample(k)) +
+                     (memory.empty() ? 0.0 : memory[k]);
     n_hat[k] = (ddth[k] + s.damping[k] * dth[k]) / bt - u;
     valid[k] = std::isfinite(n_hat[k]);
   }

@@ -53,8 +53,13 @@ double deadzone_alpha_ratio(const RunData& run, IndexRange window, double sample
 /// offset), or a known disturbance. (A hand-kept list here once missed Stribeck, asymmetric and
 /// position-dependent friction: a model holding one had its α-model re-identified as though its
 /// friction were not in the plant input, and absorbed it twice.)
+/// A discovered term's memory terms (a lagged friction, a Dahl state: DiscoveredMemory) are a
+/// torque of the state's history, which effect_torque() leaves out: they are added from their
+/// state run along the measured record (discovered_memory_torque_along()). Left out until
+/// 2026-12-07, a model with them had its α-model identified as though they were not in the plant
+/// input (the α-model took in the friction they carry, and the simulation had it twice).
 bool has_torque(const Effects& effects, const KnownInputSeries& known) {
-  return TorqueEffects(effects).any() || known.has_disturbance();
+  return TorqueEffects(effects).any() || discovered_memory_active(effects) || known.has_disturbance();
 }
 
 }  // namespace
@@ -116,9 +121,12 @@ LocalLinearPoint sine_point_with_effects(const RunData& run, IndexRange window, 
     const std::vector<double>& dth = theta_dot;
     if (dth.size() != run.size()) return bad;
     std::vector<double> nt(n);
+    std::vector<double> memory(discovered_memory_active(effects) ? window.end : 0);  // from the run's start
+    discovered_memory_torque_along(effects, run.t.data(), dth.data(), memory.size(), memory.data());
     for (std::size_t k = 0; k < n; ++k) {
       const std::size_t i = window.begin + k;
-      nt[k] = plant_torque(effects, run.t[i], run.theta[i], dth[i], known.at_sample(i));
+      nt[k] = plant_torque(effects, run.t[i], run.theta[i], dth[i], known.at_sample(i)) +
+              (memory.empty() ? 0.0 : memory[i]);
     }
     const SineFit fn = fit_sine(t, nt.data(), n, w);
     if (!fn.valid) return bad;

@@ -140,8 +140,12 @@ TimeDomainGravityCost::TimeDomainGravityCost(const Dataset& dataset,
     const RunData& d = data[i];
     const Controller& ctl = dataset.runs[i].controller;
     if (d.size() < 20 || !(ctl.kp > 0.0 || ctl.ki > 0.0 || ctl.kd > 0.0)) continue;
-    Run r{&d, ctl, {}, {}, {}};
+    Run r{&d, ctl, {}, {}, {}, {}};
     local_quadratic_derivatives(d.t, d.theta, 0.01, r.theta_dot, r.theta_ddot);
+    if (discovered_memory_active(base_)) {
+      r.memory_v.resize(d.size());
+      discovered_memory_torque_along(base_, d.t.data(), r.theta_dot.data(), d.size(), r.memory_v.data());
+    }
     for (std::size_t k = 0; k < d.size(); ++k) {
       // The first and last 20 ms (one-sided fits) left out.
       if (d.t[k] - d.t.front() < 0.02 || d.t.back() - d.t[k] < 0.02) continue;
@@ -163,7 +167,8 @@ bool TimeDomainGravityCost::regress(double g, double theta0, double& c, double& 
     const RunData& d = *r.data;
     const KnownInputSeries known = KnownInputSeries::of_run(d);
     for (std::size_t k : r.samples) {
-      const double u = plant_input(e, d.t[k], d.v[k], d.theta[k], r.theta_dot[k], known.at_sample(k));
+      const double u =
+          plant_input(e, d.t[k], d.v[k], d.theta[k], r.theta_dot[k], known.at_sample(k)) + r.memory_at(k);
       const double x1 = -r.theta_dot[k], y = r.theta_ddot[k];
       s11 += x1 * x1, s12 += x1 * u, s22 += u * u, b1 += x1 * y, b2 += u * y;
     }
@@ -205,7 +210,7 @@ bool TimeDomainGravityCost::equation_error_start(GravityPoint& start) const {
     const KnownInputSeries known = KnownInputSeries::of_run(d);
     for (std::size_t k : r.samples) {
       const double u0 =
-          plant_input(base_, d.t[k], d.v[k], d.theta[k], r.theta_dot[k], known.at_sample(k));
+          plant_input(base_, d.t[k], d.v[k], d.theta[k], r.theta_dot[k], known.at_sample(k)) + r.memory_at(k);
       const Eigen::Vector4d x(-r.theta_dot[k], u0, -std::sin(d.theta[k]), -std::cos(d.theta[k]));
       a += x * x.transpose();
       b += x * r.theta_ddot[k];

@@ -126,10 +126,14 @@ TimeDomainLinearFit fit_linear_time_domain(const std::vector<TimeDomainRun>& run
     const KnownInputSeries known = KnownInputSeries::of_run(d);
     std::vector<double> dth, ddth;
     local_quadratic_derivatives(d.t, d.theta, options.smoothing_window_s, dth, ddth);
+    std::vector<double> memory(discovered_memory_active(options.effects) ? d.size() : 0);
+    discovered_memory_torque_along(options.effects, d.t.data(), dth.data(), memory.size(), memory.data());
     for (std::size_t k = 0; k < d.size(); ++k) {
-      // u of plant_input.hpp at the sample (the delay is left to the output-error stage).
+      // u of plant_input.hpp at the sample (the delay is left to the output-error stage), with a
+      // discovered term's memory terms run along the record (effect_torque() has no state).
       const double u = plant_input(options.effects, d.t[k], d.v[k], d.theta[k], dth[k],
-                                   known.at_sample(k));
+                                   known.at_sample(k)) +
+                       (memory.empty() ? 0.0 : memory[k]);
       const Eigen::Vector2d row(-dth[k], u);
       if (!row.allFinite() || !std::isfinite(ddth[k])) continue;
       ata += row * row.transpose();

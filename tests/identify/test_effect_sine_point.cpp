@@ -187,5 +187,24 @@ TEST(EffectSinePoint, ASaturationIsTakenOutOfCAndBeta) {
   expect_corrected(d, 0.1, 0.02, 0.01);
 }
 
+TEST(EffectSinePoint, ADiscoveredFrictionWithMemoryIsTakenOutOfC) {
+  // The discovered term's memory terms (a friction that follows the velocity through a 15 ms lag;
+  // a Dahl state) have no value in effect_torque(), which has no state: the point runs their
+  // state along the record. Until 2026-12-07 it left them out, read the run as though they were
+  // not there (the corrected error equal to the uncorrected one), and an α-model identified with
+  // such a term took in its friction (the invented frictional lag of the diagnose figure).
+  Effects lag;
+  lag.discovered_lag_sign_v = -0.01;
+  lag.discovered_lag_s = 0.015;
+  lag.discovered_lag_smoothing_rad_s = 0.01;
+  const Readings r = expect_corrected(lag, 0.1, 0.06, 0.03);
+  EXPECT_LT(r.corrected.c, 0.2 * r.naive.c);
+  Effects dahl;
+  dahl.discovered_dahl_v = -0.01;
+  dahl.discovered_dahl_rad = 0.002;
+  const Readings d = expect_corrected(dahl, 0.1, 0.06, 0.03);
+  EXPECT_LT(d.corrected.c, 0.2 * d.naive.c);
+}
+
 }  // namespace
 }  // namespace alphainv

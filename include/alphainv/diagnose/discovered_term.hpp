@@ -177,7 +177,8 @@ struct DiscoveredTermResult {
   /// The named friction the term took the place of (Coulomb friction or a form that generalises
   /// it: its levels are 0 in `effects`, diagnose() drops its name), or kNone. A friction with
   /// memory is first named by its nearest memoryless form; with each named friction taken out in
-  /// turn, the memory terms are tried again, and such a contender wins when it cuts the best
+  /// turn, the memory terms are tried again (a contender of each form, the lagged sign and the
+  /// Dahl state, with the α-model identified again with it), and such a contender wins when it cuts the best
   /// one's RMS over all runs by significance/2. So too a named torque of the state outside the
   /// friction family (cogging, gravity, an offset): taken out, the library's and the memory terms'
   /// regressions on what the model then leaves; such a contender wins when it does no worse over

@@ -86,6 +86,10 @@ class TimeDomainGravityCost {
     Controller controller;
     std::vector<double> theta_dot, theta_ddot;
     std::vector<std::size_t> samples;  ///< the samples of the regression (interior, finite)
+    /// The base's discovered memory terms along the record (discovered_memory_torque_along();
+    /// empty without them): part of u that plant_input() has no state for.
+    std::vector<double> memory_v;
+    double memory_at(std::size_t k) const { return memory_v.empty() ? 0.0 : memory_v[k]; }
   };
   bool regress(double g, double theta0, double& c, double& beta_tilde) const;
   std::vector<Run> runs_;

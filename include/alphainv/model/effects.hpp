@@ -231,6 +231,32 @@ struct DiscoveredMemory {
   }
 };
 
+/// n_mem (DiscoveredMemory::torque()) at every sample of a measured record: `out[k]` for the n
+/// samples of times `t_s` and velocities `theta_dot` (rad/s), in time order. The state starts at
+/// the first sample (f = θ̇, z = 0) and again after a gap (a step not in (0, 0.05] s); each step
+/// advances it with the lag's decay over the step and the displacement from θ̇ by the trapezoid
+/// (a measured θ's noise would turn z over at rest). All zeros when the term has no memory term.
+/// What a fit on measured data adds to effect_torque() (which has no state) wherever it uses the
+/// plant input along a recorded run: the local sine points, the equation-error residuals. Offline
+/// use; no allocation.
+inline void discovered_memory_torque_along(const Effects& e, const double* t_s, const double* theta_dot,
+                                           std::size_t n, double* out) noexcept {
+  if (!discovered_memory_active(e)) {
+    for (std::size_t k = 0; k < n; ++k) out[k] = 0.0;
+    return;
+  }
+  DiscoveredMemory m;
+  for (std::size_t k = 0; k < n; ++k) {
+    const double dt = k > 0 ? t_s[k] - t_s[k - 1] : 0.0;
+    if (k == 0 || !(dt > 0.0) || dt > 0.05 || !std::isfinite(theta_dot[k]) || !std::isfinite(theta_dot[k - 1])) {
+      m.reset(std::isfinite(theta_dot[k]) ? theta_dot[k] : 0.0);
+    } else {
+      m.advance(e, DiscoveredMemory::lag_decay(e, dt), 0.5 * (theta_dot[k] + theta_dot[k - 1]) * dt, theta_dot[k]);
+    }
+    out[k] = m.torque(e);
+  }
+}
+
 /// Σ_k c_k·φ_k(θ, θ̇) [command unit]: the discovered term. Real-time safe.
 inline double discovered_torque(const Effects& e, double theta, double theta_dot) noexcept {
   std::array<double, kDiscoveredTerms> phi;
