@@ -56,28 +56,26 @@ constexpr double kMemoryShareOfFrictionTakenIn = 0.5;
 constexpr std::array<double, 5> kLagGridS = {0.002, 0.005, 0.01, 0.02, 0.05};
 constexpr std::array<double, 5> kDahlGridFraction = {0.001, 0.003, 0.01, 0.03, 0.1};
 
-/// The memory terms' columns tanh(f/ε) and z along the torque residual's samples, each run's
-/// samples in time order (a gap or a new run starts the state again: f = θ̇, z = 0), the
-/// displacement over a sample from θ̇ (trapezoid: the measured θ's noise would turn z over).
+/// The memory terms' columns tanh(f/ε) and z along the torque residual's samples: each run's
+/// samples in time order through discovered_memory_torque_along() (effects.hpp: the state the
+/// plant input along a record uses, started again at a gap or a new run), once with the lagged
+/// sign at unit coefficient and once with the Dahl state.
 void memory_columns(const diagnose_detail::TorqueResidual& tr, const Effects& scales,
                     std::vector<double>& lag, std::vector<double>& dahl) {
-  Effects e = scales;
-  e.discovered_dahl_v = 1.0;  // advance() turns z only for a Dahl term that is on
-  e.discovered_lag_sign_v = 0.0;
+  Effects lag_only = scales, dahl_only = scales;
+  lag_only.discovered_lag_sign_v = 1.0;
+  lag_only.discovered_dahl_v = 0.0;
+  dahl_only.discovered_lag_sign_v = 0.0;
+  dahl_only.discovered_dahl_v = 1.0;
   const std::size_t n = tr.theta_dot.size();
   lag.assign(n, 0.0);
   dahl.assign(n, 0.0);
-  DiscoveredMemory m;
-  for (std::size_t k = 0; k < n; ++k) {
-    const double dt = k > 0 ? tr.t[k] - tr.t[k - 1] : 0.0;
-    if (k == 0 || tr.run[k] != tr.run[k - 1] || !(dt > 0.0) || dt > 0.05) {
-      m.reset(tr.theta_dot[k]);
-    } else {
-      m.advance(e, std::exp(-dt / e.discovered_lag_s), 0.5 * (tr.theta_dot[k] + tr.theta_dot[k - 1]) * dt,
-                tr.theta_dot[k]);
+  for (std::size_t begin = 0, end = 0; begin < n; begin = end) {
+    for (end = begin + 1; end < n && tr.run[end] == tr.run[begin]; ++end) {
     }
-    lag[k] = std::tanh(m.lag_velocity_rad_s / e.discovered_lag_smoothing_rad_s);
-    dahl[k] = m.dahl_state;
+    const std::size_t m = end - begin;
+    discovered_memory_torque_along(lag_only, &tr.t[begin], &tr.theta_dot[begin], m, &lag[begin]);
+    discovered_memory_torque_along(dahl_only, &tr.t[begin], &tr.theta_dot[begin], m, &dahl[begin]);
   }
 }
 
